@@ -1,0 +1,306 @@
+"""The artifact store: the only code that touches paths and manifests.
+
+Layout: ``<store>/<kind>/<name>/v<N>/`` holding ``manifest.json`` and data files. A version is
+written into ``<store>/.tmp/`` and renamed into place only once every file is fsynced, so a crash
+never leaves a half-written version visible. Versions are immutable; a rerun writes ``v<N+1>``.
+Runs in progress keep their checkpoints under ``<store>/.runs/<kind>/<name>/``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import json
+import os
+import re
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+from . import __version__
+from .envs import EnvInfo
+from .errors import LwailError
+
+SCHEMA_VERSION = 1
+KINDS = ("dataset", "demos", "embedding", "discriminator", "policy")
+MANIFEST = "manifest.json"
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+_REF = re.compile(r"^(?:(?P<kind>[a-z]+)/)?(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*?)(?:@v(?P<version>\d+))?$")
+
+
+def default_store() -> Path:
+    return Path(os.environ.get("LWAIL_STORE", "artifacts"))
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _content_hash(file_hashes: dict[str, str]) -> str:
+    lines = "".join(f"{name}:{digest}\n" for name, digest in sorted(file_hashes.items()))
+    return hashlib.sha256(lines.encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Artifact:
+    """A committed, validated artifact version."""
+
+    path: Path
+    manifest: dict
+
+    @property
+    def kind(self) -> str:
+        return self.manifest["kind"]
+
+    @property
+    def name(self) -> str:
+        return self.manifest["name"]
+
+    @property
+    def version(self) -> int:
+        return self.manifest["version"]
+
+    @property
+    def ref(self) -> str:
+        return f"{self.kind}/{self.name}@v{self.version}"
+
+    @property
+    def hash(self) -> str:
+        return self.manifest["hash"]
+
+    @property
+    def env(self) -> EnvInfo:
+        return EnvInfo.from_dict(self.manifest["env"])
+
+    @property
+    def config(self) -> dict:
+        return self.manifest["config"]
+
+    @property
+    def metrics(self) -> dict:
+        return self.manifest.get("metrics", {})
+
+    def file(self, name: str) -> Path:
+        return self.path / name
+
+    def append_log(self, filename: str, row: dict) -> Path:
+        """Append a row to a CSV that sits beside the artifact's data (not part of its hash)."""
+        if filename in self.manifest["files"] or filename == MANIFEST:
+            raise LwailError(f"{filename} is a data file of {self.ref} and cannot be appended to")
+        target = self.path / filename
+        new = not target.exists()
+        with open(target, "a", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(row))
+            if new:
+                writer.writeheader()
+            writer.writerow(row)
+        return target
+
+
+class ArtifactWriter:
+    """A version being written: files go into ``directory``; metrics may be added until commit."""
+
+    def __init__(self, directory: Path):
+        self.directory = directory
+        self.metrics: dict = {}
+
+    def path(self, filename: str) -> Path:
+        return self.directory / filename
+
+
+class Store:
+    def __init__(self, root: Path | str | None = None):
+        self.root = Path(root) if root is not None else default_store()
+
+    # ---------------------------------------------------------------- reading
+    def resolve(self, ref: str, kind: str) -> Artifact:
+        """Find ``name``, ``name@vN``, ``kind/name@vN`` or a path, and validate it as ``kind``."""
+        path = Path(ref)
+        if (path / MANIFEST).is_file():
+            artifact = self._load(path)
+        else:
+            match = _REF.match(ref)
+            if not match:
+                raise LwailError(f"{ref!r} is neither an artifact path nor a name like 'hopper' or 'hopper@v2'")
+            ref_kind = match["kind"] or kind
+            name = match["name"]
+            if not (self.root / ref_kind / name).is_dir():
+                elsewhere = [k for k in KINDS if k != ref_kind and (self.root / k / name).is_dir()]
+                if elsewhere:
+                    raise LwailError(f"{ref!r} is a {elsewhere[0]} artifact, but a {kind} is needed here")
+                raise LwailError(f"no {ref_kind} artifact named {name!r} in store {self.root}")
+            versions = self._versions(ref_kind, name)
+            if not versions:
+                raise LwailError(f"no committed version of {ref_kind}/{name} in store {self.root}")
+            version = int(match["version"]) if match["version"] else versions[-1]
+            if version not in versions:
+                raise LwailError(f"{ref_kind}/{name} has no version v{version} (has v{', v'.join(map(str, versions))})")
+            artifact = self._load(self.root / ref_kind / name / f"v{version}")
+        if artifact.kind != kind:
+            raise LwailError(f"{ref!r} is a {artifact.kind} artifact, but a {kind} is needed here")
+        return artifact
+
+    def _load(self, path: Path) -> Artifact:
+        try:
+            manifest = json.loads((path / MANIFEST).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise LwailError(f"cannot read the manifest of {path}: {exc}") from None
+        if manifest.get("schema_version") != SCHEMA_VERSION:
+            raise LwailError(
+                f"{path} has schema version {manifest.get('schema_version')}; this lwail reads {SCHEMA_VERSION}"
+            )
+        if manifest.get("kind") not in KINDS:
+            raise LwailError(f"{path} has unknown kind {manifest.get('kind')!r}")
+        file_hashes = manifest.get("files", {})
+        for filename, expected in file_hashes.items():
+            target = path / filename
+            if not target.is_file():
+                raise LwailError(f"{path} is missing its data file {filename}")
+            if _sha256(target) != expected:
+                raise LwailError(f"{path}/{filename} does not match its recorded hash: the artifact was modified")
+        if _content_hash(file_hashes) != manifest.get("hash"):
+            raise LwailError(f"{path} has an inconsistent content hash in its manifest")
+        return Artifact(path=path, manifest=manifest)
+
+    def _versions(self, kind: str, name: str) -> list[int]:
+        folder = self.root / kind / name
+        if not folder.is_dir():
+            return []
+        found = (re.fullmatch(r"v(\d+)", p.name) for p in folder.iterdir())
+        return sorted(int(m[1]) for m in found if m and (folder / m[0] / MANIFEST).is_file())
+
+    def list(self) -> list[tuple[str, str, list[int], dict]]:
+        """Every (kind, name, versions, latest manifest) in the store, without re-hashing data."""
+        rows = []
+        for kind in KINDS:
+            folder = self.root / kind
+            if not folder.is_dir():
+                continue
+            for name_dir in sorted(folder.iterdir()):
+                versions = self._versions(kind, name_dir.name)
+                if versions:
+                    manifest = json.loads((name_dir / f"v{versions[-1]}" / MANIFEST).read_text())
+                    rows.append((kind, name_dir.name, versions, manifest))
+        return rows
+
+    # ---------------------------------------------------------------- writing
+    @contextlib.contextmanager
+    def create(
+        self,
+        kind: str,
+        name: str,
+        *,
+        env: EnvInfo,
+        config: dict,
+        seed: int | None,
+        parents: list[Artifact] = (),
+        extra: dict | None = None,
+    ) -> Iterator[ArtifactWriter]:
+        """Write a new version atomically; nothing becomes visible unless the block completes."""
+        if kind not in KINDS:
+            raise ValueError(f"unknown artifact kind {kind}")
+        check_name(name)
+        tmp_root = self.root / ".tmp"
+        tmp_root.mkdir(parents=True, exist_ok=True)
+        directory = Path(tempfile.mkdtemp(prefix=f"{kind}-{name}-", dir=tmp_root))
+        writer = ArtifactWriter(directory)
+        try:
+            yield writer
+            self._commit(writer, kind, name, env, config, seed, parents, extra or {})
+        finally:
+            shutil.rmtree(directory, ignore_errors=True)
+
+    def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> None:
+        file_hashes = {}
+        for target in sorted(writer.directory.rglob("*")):
+            if target.is_file():
+                with open(target, "rb+") as handle:
+                    os.fsync(handle.fileno())
+                file_hashes[str(target.relative_to(writer.directory))] = _sha256(target)
+        manifest = {
+            "kind": kind,
+            "schema_version": SCHEMA_VERSION,
+            "name": name,
+            "version": None,
+            "env": env.to_dict(),
+            "config": config,
+            "seed": seed,
+            "parents": [{"ref": p.ref, "hash": p.hash} for p in parents],
+            "package_version": __version__,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "metrics": writer.metrics,
+            "files": file_hashes,
+            "hash": _content_hash(file_hashes),
+            **extra,
+        }
+        parent_dir = self.root / kind / name
+        parent_dir.mkdir(parents=True, exist_ok=True)
+        version = (self._versions(kind, name) or [0])[-1] + 1
+        while True:
+            manifest["version"] = version
+            manifest_path = writer.directory / MANIFEST
+            manifest_path.write_text(json.dumps(manifest, indent=2))
+            with open(manifest_path, "rb+") as handle:
+                os.fsync(handle.fileno())
+            try:
+                os.rename(writer.directory, parent_dir / f"v{version}")
+                break
+            except OSError:  # a concurrent writer took this version number
+                version += 1
+        _fsync_dir(parent_dir)
+
+    # ---------------------------------------------------------------- checkpoints of runs in progress
+    def _checkpoint_path(self, kind: str, name: str) -> Path:
+        check_name(name)
+        return self.root / ".runs" / kind / name / "checkpoint.pt"
+
+    def save_checkpoint(self, kind: str, name: str, state: dict) -> Path:
+        """Replace the run's checkpoint atomically (a kill mid-write keeps the previous one)."""
+        import torch
+
+        path = self._checkpoint_path(kind, name)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_suffix(".partial")
+        with open(partial, "wb") as handle:
+            torch.save(state, handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(partial, path)
+        return path
+
+    def load_checkpoint(self, kind: str, name: str) -> dict:
+        import pickle
+
+        import torch
+
+        path = self._checkpoint_path(kind, name)
+        if not path.is_file():
+            raise LwailError(f"--resume: no checkpoint for {kind}/{name} in store {self.root}")
+        try:
+            return torch.load(path, map_location="cpu", weights_only=False)
+        except (RuntimeError, EOFError, OSError, pickle.UnpicklingError, ValueError) as exc:
+            raise LwailError(f"--resume: the checkpoint {path} is corrupt ({type(exc).__name__}); rerun without --resume") from None
+
+    def clear_checkpoint(self, kind: str, name: str) -> None:
+        shutil.rmtree(self._checkpoint_path(kind, name).parent, ignore_errors=True)
+
+
+def check_name(name: str) -> None:
+    if not _NAME.match(name):
+        raise LwailError(f"artifact name {name!r} may hold only letters, digits, '.', '_' and '-'")
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -1,0 +1,248 @@
+"""State-only data: episodes of observations with their boundaries, collected, imported or stored.
+
+An episode holds ``T+1`` observations and ``T`` transitions. Pairs ``(s_t, s_{t+1})`` are formed
+inside an episode, never across a boundary. Terminations and truncations are kept apart because
+later stages bootstrap through a truncation but not through a termination.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import gymnasium as gym
+import numpy as np
+
+from .envs import EnvInfo
+from .errors import LwailError
+
+
+@dataclass
+class Episode:
+    observations: np.ndarray  # (T+1, obs_dim)
+    actions: np.ndarray | None = None  # (T, act_dim)
+    rewards: np.ndarray | None = None  # (T,)
+    terminated: bool = False  # the last observation is terminal (no bootstrapping past it)
+
+    @property
+    def length(self) -> int:
+        return len(self.observations) - 1
+
+    @property
+    def episode_return(self) -> float:
+        return float(self.rewards.sum()) if self.rewards is not None else float("nan")
+
+
+@dataclass
+class FlatEpisodes:
+    """Episodes concatenated for fast index sampling."""
+
+    observations: np.ndarray  # (N, obs_dim) float32, every episode's T+1 observations back to back
+    episode_end: np.ndarray  # (N,) index of the last observation of the episode each row belongs to
+    episode_start: np.ndarray  # (N,)
+    has_successor: np.ndarray  # (N,) bool, False on each episode's last observation
+
+
+def flatten(episodes: list[Episode]) -> FlatEpisodes:
+    lengths = np.array([len(e.observations) for e in episodes])
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    ends = starts + lengths - 1
+    observations = np.concatenate([e.observations for e in episodes]).astype(np.float32)
+    has_successor = np.ones(len(observations), dtype=bool)
+    has_successor[ends] = False
+    return FlatEpisodes(
+        observations=observations,
+        episode_end=np.repeat(ends, lengths),
+        episode_start=np.repeat(starts, lengths),
+        has_successor=has_successor,
+    )
+
+
+def transition_pairs(episodes: list[Episode]) -> tuple[np.ndarray, np.ndarray]:
+    """All ``(s, s')`` pairs inside episodes, as float32 arrays."""
+    states = np.concatenate([e.observations[:-1] for e in episodes]).astype(np.float32)
+    successors = np.concatenate([e.observations[1:] for e in episodes]).astype(np.float32)
+    return states, successors
+
+
+def validate_episodes(episodes: list[Episode], env: EnvInfo, source: str) -> None:
+    if not episodes:
+        raise LwailError(f"{source} holds no episodes")
+    for episode in episodes:
+        obs = episode.observations
+        if obs.ndim != 2 or obs.shape[1] != env.obs_dim:
+            raise LwailError(
+                f"{source} has observations of shape {obs.shape[1:] if obs.ndim == 2 else obs.shape}, "
+                f"but {env.id} observations have {env.obs_dim} dims"
+            )
+        if episode.actions is not None and episode.actions.shape[-1] != env.act_dim:
+            raise LwailError(f"{source} has {episode.actions.shape[-1]}-dim actions, but {env.id} has {env.act_dim}")
+        if not np.all(np.isfinite(obs)):
+            raise LwailError(f"{source} contains NaN or infinite observations")
+    if sum(e.length for e in episodes) == 0:
+        raise LwailError(f"{source} holds no transitions (every episode has a single observation)")
+
+
+def collect_random(env: gym.Env, transitions: int, seed: int, on_step: Callable[[int], None] | None = None) -> list[Episode]:
+    """Roll out a uniformly random policy for exactly ``transitions`` steps.
+
+    The last episode is cut when the budget runs out and is then recorded as truncated.
+    """
+    env.action_space.seed(seed)
+    episodes: list[Episode] = []
+    obs, _ = env.reset(seed=seed)
+    observations, actions, rewards = [obs], [], []
+    for step in range(transitions):
+        action = env.action_space.sample()
+        obs, reward, terminated, truncated, _ = env.step(action)
+        observations.append(obs)
+        actions.append(action)
+        rewards.append(reward)
+        if terminated or truncated or step == transitions - 1:
+            episodes.append(
+                Episode(
+                    observations=np.asarray(observations, dtype=np.float32),
+                    actions=np.asarray(actions, dtype=np.float32),
+                    rewards=np.asarray(rewards, dtype=np.float32),
+                    terminated=bool(terminated),
+                )
+            )
+            if step < transitions - 1:
+                obs, _ = env.reset()
+                observations, actions, rewards = [obs], [], []
+        if on_step is not None:
+            on_step(step + 1)
+    return episodes
+
+
+# ------------------------------------------------------------------------------ Minari format
+def write_minari(episodes: list[Episode], directory: Path, dataset_id: str, env: gym.Env, description: str) -> None:
+    """Write episodes in Minari's on-disk format so ``minari.MinariDataset(directory)`` loads them."""
+    from minari import __version__ as minari_version
+    from minari.data_collector import EpisodeBuffer
+    from minari.dataset.minari_storage import MinariStorage
+
+    storage = MinariStorage.new(
+        directory,
+        observation_space=env.observation_space,
+        action_space=env.action_space,
+        env_spec=env.spec,
+        data_format="hdf5",
+    )
+    storage.update_metadata(
+        {
+            "dataset_id": dataset_id,
+            "minari_version": minari_version,
+            "algorithm_name": "uniform-random" if "random" in description else "lwail",
+            "description": description,
+            "author": {"lwail"},
+        }
+    )
+    buffers = []
+    for index, episode in enumerate(episodes):
+        terminations = np.zeros(episode.length, dtype=bool)
+        truncations = np.zeros(episode.length, dtype=bool)
+        if episode.terminated:
+            terminations[-1] = True
+        else:
+            truncations[-1] = True
+        buffers.append(
+            EpisodeBuffer(
+                id=index,
+                observations=episode.observations.astype(env.observation_space.dtype),
+                actions=episode.actions,
+                rewards=list(episode.rewards),
+                terminations=list(terminations),
+                truncations=list(truncations),
+            )
+        )
+    storage.update_episodes(buffers)
+
+
+def read_minari(dataset) -> list[Episode]:
+    """Episodes of a ``minari.MinariDataset`` (actions and rewards are kept but unused later)."""
+    episodes = []
+    for episode in dataset.iterate_episodes():
+        observations = episode.observations
+        if isinstance(observations, dict):
+            raise LwailError(f"{dataset.spec.dataset_id} has dict observations; lwail needs flat Box observations")
+        episodes.append(
+            Episode(
+                observations=np.asarray(observations, dtype=np.float32),
+                actions=np.asarray(episode.actions, dtype=np.float32),
+                rewards=np.asarray(episode.rewards, dtype=np.float32),
+                terminated=bool(np.asarray(episode.terminations)[-1]) if len(episode.terminations) else False,
+            )
+        )
+    return episodes
+
+
+def load_minari_directory(directory: Path) -> list[Episode]:
+    import minari
+
+    return read_minari(minari.MinariDataset(directory))
+
+
+def load_local_minari(dataset_id: str):
+    """A dataset from the local Minari store; never downloads."""
+    from minari.storage import get_dataset_path
+
+    path = Path(get_dataset_path(dataset_id))
+    if not (path / "data" / "metadata.json").is_file():
+        root = os.environ.get("MINARI_DATASETS_PATH", "~/.minari/datasets")
+        raise LwailError(
+            f"Minari dataset {dataset_id!r} is not in the local Minari store ({root}); "
+            "lwail never downloads: fetch it with `minari download` on a connected machine, or pass --from-file"
+        )
+    import minari
+
+    return minari.MinariDataset(path / "data")
+
+
+# ------------------------------------------------------------------------------ .npz files
+def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
+    """Episodes from a ``.npz``: ``observations`` (N, obs_dim) and ``episode_ends`` (N,) bool marking
+    each episode's last observation; optional ``terminations`` (N,) bool on those last observations
+    and ``returns`` (one per episode). Returns the episodes and the returns (or None)."""
+    try:
+        with np.load(path) as archive:
+            arrays = {key: archive[key] for key in archive.files}
+    except (OSError, ValueError) as exc:
+        raise LwailError(f"cannot read {path} as a .npz file: {exc}") from None
+    for key in ("observations", "episode_ends"):
+        if key not in arrays:
+            raise LwailError(f"{path} has no {key!r} array (it has: {', '.join(arrays) or 'nothing'})")
+    observations = np.asarray(arrays["observations"], dtype=np.float32)
+    ends = np.asarray(arrays["episode_ends"]).astype(bool)
+    if observations.ndim != 2 or len(observations) == 0:
+        raise LwailError(f"{path}: 'observations' must be a non-empty (N, obs_dim) array, got {observations.shape}")
+    if ends.shape != (len(observations),):
+        raise LwailError(f"{path}: 'episode_ends' must have one flag per observation ({len(observations)})")
+    if not ends[-1]:
+        raise LwailError(f"{path}: 'episode_ends' must mark the last observation as an episode end")
+    terminations = np.asarray(arrays.get("terminations", np.zeros_like(ends))).astype(bool)
+    cut_points = np.flatnonzero(ends) + 1
+    episodes = [
+        Episode(observations=chunk, terminated=bool(term[-1]))
+        for chunk, term in zip(np.split(observations, cut_points[:-1]), np.split(terminations, cut_points[:-1]))
+    ]
+    returns = np.asarray(arrays["returns"], dtype=np.float64) if "returns" in arrays else None
+    if returns is not None and len(returns) != len(episodes):
+        raise LwailError(f"{path}: {len(returns)} returns for {len(episodes)} episodes")
+    return episodes, returns
+
+
+def write_npz(path: Path, episodes: list[Episode], returns: np.ndarray | None = None) -> None:
+    observations = np.concatenate([e.observations for e in episodes]).astype(np.float32)
+    ends = np.zeros(len(observations), dtype=bool)
+    terminations = np.zeros(len(observations), dtype=bool)
+    last = np.cumsum([len(e.observations) for e in episodes]) - 1
+    ends[last] = True
+    terminations[last] = [e.terminated for e in episodes]
+    arrays = {"observations": observations, "episode_ends": ends, "terminations": terminations}
+    if returns is not None:
+        arrays["returns"] = np.asarray(returns, dtype=np.float64)
+    with open(path, "wb") as handle:
+        np.savez_compressed(handle, **arrays)

@@ -1,0 +1,92 @@
+"""Making environments and describing them, so artifacts can refuse data from another task."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import gymnasium as gym
+import numpy as np
+
+from .errors import LwailError
+
+
+@dataclass(frozen=True)
+class EnvInfo:
+    """What an artifact records about the environment it was made for."""
+
+    id: str
+    obs_dim: int
+    act_dim: int
+    action_low: tuple[float, ...]
+    action_high: tuple[float, ...]
+    max_episode_steps: int | None
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> EnvInfo:
+        return cls(
+            id=data["id"],
+            obs_dim=int(data["obs_dim"]),
+            act_dim=int(data["act_dim"]),
+            action_low=tuple(data["action_low"]),
+            action_high=tuple(data["action_high"]),
+            max_episode_steps=data.get("max_episode_steps"),
+        )
+
+
+def make_env(env_id: str, seed: int | None = None) -> gym.Env:
+    """Create a gymnasium env with a flat Box observation and a bounded Box action, or explain why not."""
+    try:
+        env = gym.make(env_id)
+    except gym.error.Error as exc:
+        raise LwailError(f"unknown environment {env_id!r}: {exc}") from None
+    except ImportError as exc:
+        raise LwailError(f"environment {env_id!r} needs a package that is not installed: {exc}") from None
+    obs_space, act_space = env.observation_space, env.action_space
+    if not isinstance(act_space, gym.spaces.Box):
+        env.close()
+        raise LwailError(
+            f"{env_id} has a {type(act_space).__name__} action space; LWAIL's TD3 needs a continuous (Box) one"
+        )
+    if not (np.all(np.isfinite(act_space.low)) and np.all(np.isfinite(act_space.high))):
+        env.close()
+        raise LwailError(f"{env_id} has an unbounded action space; TD3 needs finite action bounds")
+    if not isinstance(obs_space, gym.spaces.Box) or len(obs_space.shape) != 1:
+        env.close()
+        raise LwailError(f"{env_id} must have a flat Box observation space, not {obs_space}")
+    if seed is not None:
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+    return env
+
+
+def env_info(env: gym.Env) -> EnvInfo:
+    return EnvInfo(
+        id=env.spec.id if env.spec is not None else type(env.unwrapped).__name__,
+        obs_dim=int(env.observation_space.shape[0]),
+        act_dim=int(env.action_space.shape[0]),
+        action_low=tuple(float(v) for v in env.action_space.low),
+        action_high=tuple(float(v) for v in env.action_space.high),
+        max_episode_steps=env.spec.max_episode_steps if env.spec is not None else None,
+    )
+
+
+def describe_env(env_id: str) -> EnvInfo:
+    env = make_env(env_id)
+    try:
+        return env_info(env)
+    finally:
+        env.close()
+
+
+def require_same_env(expected: EnvInfo, found: EnvInfo, what: str) -> None:
+    """Refuse an artifact made for another environment or with other observation/action shapes."""
+    if found.id != expected.id:
+        raise LwailError(f"{what} was made for {found.id}, not {expected.id}")
+    if (found.obs_dim, found.act_dim) != (expected.obs_dim, expected.act_dim):
+        raise LwailError(
+            f"{what} has obs/action dims {found.obs_dim}/{found.act_dim}, "
+            f"but {expected.id} has {expected.obs_dim}/{expected.act_dim}"
+        )

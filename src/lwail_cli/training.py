@@ -1,0 +1,181 @@
+"""The online TD3 loop shared by expert training (true reward) and LWAIL (pseudo-reward).
+
+One TD3 update per environment step. A reward model decides what the buffer's rewards are: the
+environment's own (experts) or σ(−f) relabelled as f changes (LWAIL, ``imitation.py``). The loop
+reports through callbacks and hands checkpoint state to a callback; it never prints or touches paths.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from .config import TD3Config, TrainConfig
+from .envs import make_env
+from .evaluation import Reference, rollout_returns
+from .replay import ReplayBuffer
+from .td3 import TD3
+
+
+class RewardModel(Protocol):
+    def prepare(self, step: int, buffer: ReplayBuffer) -> None:
+        """Make the buffer's rewards current before the update of env step ``step``."""
+
+    def metrics(self) -> dict[str, float]: ...
+
+    def state_dict(self) -> dict: ...
+
+    def load_state_dict(self, state: dict) -> None: ...
+
+
+class EnvironmentReward:
+    """The true reward, stored as collected (an expert, or the paper's TD3 baseline)."""
+
+    def prepare(self, step: int, buffer: ReplayBuffer) -> None:
+        pass
+
+    def metrics(self) -> dict[str, float]:
+        return {}
+
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, state: dict) -> None:
+        pass
+
+
+@dataclass
+class RunState:
+    """Everything beyond the networks that a resumed run needs to continue exactly."""
+
+    step: int = 0
+    episode_return: float = 0.0
+    episode_returns: list[float] = field(default_factory=list)
+    history: list[dict] = field(default_factory=list)
+    wall_time: float = 0.0
+
+
+def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None) -> dict[str, float]:
+    returns = rollout_returns(env_id, agent.act, episodes, seed)
+    row = {"return_mean": float(returns.mean()), "return_std": float(returns.std())}
+    if reference is not None:
+        row["normalized_score"] = reference.normalize(row["return_mean"])
+    return row
+
+
+def _env_state(env: gym.Env) -> dict:
+    state = {
+        "np_random": env.unwrapped.np_random.bit_generator.state,
+        "action_space": env.action_space.np_random.bit_generator.state,
+        "elapsed_steps": getattr(_time_limit(env), "_elapsed_steps", None),
+    }
+    if hasattr(env.unwrapped, "set_state"):  # MuJoCo: the physics state itself
+        state["qpos"] = env.unwrapped.data.qpos.copy()
+        state["qvel"] = env.unwrapped.data.qvel.copy()
+    return state
+
+
+def _restore_env_state(env: gym.Env, state: dict) -> None:
+    env.unwrapped.np_random.bit_generator.state = state["np_random"]
+    env.action_space.np_random.bit_generator.state = state["action_space"]
+    if "qpos" in state:
+        env.unwrapped.set_state(state["qpos"], state["qvel"])
+    limit = _time_limit(env)
+    if limit is not None and state["elapsed_steps"] is not None:
+        limit._elapsed_steps = state["elapsed_steps"]
+
+
+def _time_limit(env: gym.Env) -> gym.wrappers.TimeLimit | None:
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, gym.wrappers.TimeLimit):
+            return env
+        env = env.env
+    return None
+
+
+def train_td3(
+    env_id: str,
+    agent: TD3,
+    buffer: ReplayBuffer,
+    td3: TD3Config,
+    train: TrainConfig,
+    seed: int,
+    reward_model: RewardModel | None = None,
+    reference: Reference | None = None,
+    resume: dict | None = None,
+    on_progress: Callable[[int, RunState], None] | None = None,
+    on_checkpoint: Callable[[dict], None] | None = None,
+    progress_every: int = 500,
+) -> RunState:
+    """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state."""
+    reward_model = reward_model or EnvironmentReward()
+    env = make_env(env_id)
+    obs, _ = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    noise_rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)
+    run = RunState()
+    if resume is not None:
+        agent.load_state_dict(resume["agent"])
+        buffer.load_state_dict(resume["buffer"])
+        reward_model.load_state_dict(resume["reward_model"])
+        run = RunState(**resume["run"])
+        noise_rng.bit_generator.state = resume["noise_rng"]
+        torch.set_rng_state(resume["torch_rng"])
+        _restore_env_state(env, resume["env"])
+        obs = resume["obs"]
+    low, high = env.action_space.low, env.action_space.high
+    noise_std = td3.exploration_noise * (high - low) / 2
+    started = time.perf_counter() - run.wall_time
+    try:
+        while run.step < train.steps:
+            if run.step < td3.random_steps:
+                action = env.action_space.sample()
+            else:
+                action = np.clip(agent.act(obs) + noise_rng.normal(0.0, noise_std), low, high)
+            next_obs, reward, terminated, truncated, _ = env.step(action)
+            buffer.add(obs, action, reward, next_obs, terminated)
+            run.episode_return += float(reward)
+            run.step += 1
+            if terminated or truncated:
+                run.episode_returns.append(run.episode_return)
+                run.episode_return = 0.0
+                obs, _ = env.reset()
+            else:
+                obs = next_obs
+            reward_model.prepare(run.step, buffer)
+            if run.step >= td3.learning_starts:
+                agent.update(buffer.sample(td3.batch_size))
+            if run.step % train.eval_every == 0 or run.step == train.steps:
+                run.wall_time = time.perf_counter() - started
+                row = {"step": run.step, "wall_time": run.wall_time}
+                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + 10_000, reference))
+                row.update(reward_model.metrics())
+                run.history.append(row)
+                if on_progress is not None:
+                    on_progress(run.step, run)
+            elif on_progress is not None and run.step % progress_every == 0:
+                on_progress(run.step, run)
+            if on_checkpoint is not None and run.step % train.checkpoint_every == 0 and run.step < train.steps:
+                run.wall_time = time.perf_counter() - started
+                on_checkpoint(
+                    {
+                        "agent": agent.state_dict(),
+                        "buffer": buffer.state_dict(),
+                        "reward_model": reward_model.state_dict(),
+                        "run": run.__dict__.copy(),
+                        "noise_rng": noise_rng.bit_generator.state,
+                        "torch_rng": torch.get_rng_state(),
+                        "env": _env_state(env),
+                        "obs": obs,
+                    }
+                )
+    finally:
+        env.close()
+    run.wall_time = time.perf_counter() - started
+    return run
