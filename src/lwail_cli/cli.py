@@ -229,3 +229,118 @@ def defaults(stage: str = typer.Argument(..., help="expert, icvf, imitate")) -> 
     if stage not in configs:
         raise LwailError(f"unknown stage {stage!r}; one of {', '.join(configs)}")
     typer.echo(cfg.describe(configs[stage]))
+
+
+# ------------------------------------------------------------------------------ LWAIL stages
+@command(app, "pretrain-icvf")
+def pretrain_icvf(
+    data: str = typer.Argument(..., help="Dataset artifact (from `lwail collect`)."),
+    steps: int = typer.Option(cfg.ICVFConfig.steps, "--steps", help="Gradient steps."),
+    batch_size: int = typer.Option(cfg.ICVFConfig.batch_size, "--batch-size"),
+    embedding_dim: int = typer.Option(cfg.ICVFConfig.embedding_dim, "--embedding-dim"),
+    kind: str = typer.Option("icvf", "--kind", help="icvf, or identity for the paper's no-embedding ablation."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    overrides: list[str] = SET,
+) -> None:
+    """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
+    if kind not in ("icvf", "identity"):
+        raise LwailError(f"--kind must be icvf or identity, not {kind!r}")
+    config = cfg.with_overrides(cfg.ICVFConfig(steps=steps, batch_size=batch_size, embedding_dim=embedding_dim), overrides)
+    if kind == "identity":
+        artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=True)
+    else:
+        pipeline.require_positive(config.steps, "--steps")
+        pipeline.require_positive(config.batch_size, "--batch-size")
+        with progress_bar(config.steps, "pretrain-icvf") as bar:
+
+            def progress(step: int, loss: float) -> None:
+                bar.update(step - bar.n)
+                bar.set_postfix(loss=f"{loss:.4f}", refresh=False)
+
+            artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=False, on_progress=progress)
+    say_written(artifact)
+
+
+@command(app, "warmup-disc")
+def warmup_disc(
+    embedding: str = typer.Argument(..., help="Embedding artifact (from `lwail pretrain-icvf`)."),
+    demos: str = typer.Argument(..., help="Demos artifact."),
+    data: Optional[str] = typer.Option(None, "--data", help="Random-policy dataset (default: the one the embedding was trained on)."),
+    expert_episodes: int = typer.Option(1, "--expert-episodes", help="Expert trajectories to use."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    overrides: list[str] = SET,
+) -> None:
+    """Warm the discriminator f up: expert pairs vs the random policy's true (s, s') pairs."""
+    config = cfg.with_overrides(cfg.DiscriminatorConfig(), overrides)
+    pipeline.require_positive(config.warmup_steps, "warmup_steps")
+    with progress_bar(config.warmup_steps, "warmup-disc") as bar:
+
+        def progress(step: int, wasserstein: float) -> None:
+            bar.update(step - bar.n)
+            bar.set_postfix(wasserstein=f"{wasserstein:.3f}", refresh=False)
+
+        artifact = pipeline.warmup_discriminator(store(), embedding, demos, config, expert_episodes, seed, name, pipeline.resolve_device(device), data, progress)
+    say_written(artifact)
+
+
+@command(app, "imitate")
+def imitate(
+    env_id: str = typer.Argument(..., help="Environment to imitate in."),
+    demos: str = typer.Option(..., "--demos", help="Demos artifact."),
+    embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
+    disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact."),
+    steps: int = typer.Option(1_000_000, "--steps", help="Environment steps (one TD3 update each)."),
+    expert_episodes: int = typer.Option(1, "--expert-episodes", help="Expert trajectories to imitate."),
+    eval_every: int = typer.Option(10_000, "--eval-every"),
+    checkpoint_every: int = typer.Option(50_000, "--checkpoint-every"),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    resume: bool = RESUME,
+    overrides: list[str] = SET,
+) -> None:
+    """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
+    config = cfg.ImitationConfig(
+        train=cfg.TrainConfig(steps=steps, eval_every=eval_every, checkpoint_every=checkpoint_every),
+        expert_episodes=expert_episodes,
+    )
+    config = cfg.with_overrides(config, overrides)
+    pipeline.require_positive(config.train.steps, "--steps")
+    with progress_bar(config.train.steps, f"imitate {env_id}") as bar:
+        artifact = pipeline.imitate(store(), env_id, demos, embedding, disc, config, seed, name, pipeline.resolve_device(device), resume, run_progress(bar))
+    say_written(artifact)
+
+
+@command(app, "quickstart")
+def quickstart(
+    env_id: str = typer.Option("InvertedPendulum-v5", "--env", help="A task with bundled demos."),
+    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    seed: int = SEED,
+    device: str = DEVICE,
+) -> None:
+    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
+    plan = pipeline.quickstart_plan(env_id, steps)
+    resolved = pipeline.resolve_device(device)
+    s = store()
+    typer.echo(f"quickstart on {env_id} into store {s.root}")
+    demos = pipeline.import_bundled_demos(s, env_id, None)
+    say_written(demos)
+    with progress_bar(plan.collect_transitions, "1/4 collect") as bar:
+        data = pipeline.collect(s, env_id, plan.collect_transitions, seed, None, on_step=lambda n: bar.update(n - bar.n) if n % 500 == 0 else None)
+    say_written(data)
+    with progress_bar(plan.icvf.steps, "2/4 pretrain-icvf") as bar:
+        embedding = pipeline.pretrain_icvf(s, data.ref, plan.icvf, seed, None, resolved, identity=False, on_progress=lambda n, loss: bar.update(n - bar.n))
+    say_written(embedding)
+    with progress_bar(plan.imitation.disc.warmup_steps, "3/4 warmup-disc") as bar:
+        disc = pipeline.warmup_discriminator(s, embedding.ref, demos.ref, plan.imitation.disc, 1, seed, None, resolved, None, lambda n, w: bar.update(n - bar.n))
+    say_written(disc)
+    with progress_bar(plan.imitation.train.steps, "4/4 imitate") as bar:
+        policy = pipeline.imitate(s, env_id, demos.ref, embedding.ref, disc.ref, plan.imitation, seed, None, resolved, False, run_progress(bar))
+    say_written(policy)
+    result = pipeline.evaluate(s, policy.ref, 10, 100, True, None)
+    typer.echo(f"{policy.ref}: return {result['return_mean']:.1f} ± {result['return_std']:.1f}; "
+               f"normalized score {result['normalized_score']:.1f} ({result['reference']})")

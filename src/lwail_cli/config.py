@@ -49,7 +49,7 @@ class ExpertConfig:
 
 @dataclass(frozen=True)
 class ICVFConfig:
-    steps: int = 20_000  # the authors train 200k; the probe plateaus far earlier (see README)
+    steps: int = 10_000  # the authors train 200k; the probe plateaus far earlier (see README)
     batch_size: int = 256
     hidden: tuple[int, ...] = (256,)  # hidden widths of phi/psi before the embedding layer
     embedding_dim: int = 256

@@ -345,3 +345,251 @@ def evaluate(store: Store, policy_ref: str, episodes: int, seed: int, normalized
 
 def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S")
+
+
+# ------------------------------------------------------------------------------ embedding
+def pretrain_icvf(
+    store: Store,
+    data_ref: str,
+    config: cfg.ICVFConfig,
+    seed: int,
+    name: str | None,
+    device: torch.device,
+    identity: bool,
+    on_progress: Callable[[int, float], None] | None = None,
+) -> Artifact:
+    from .icvf import pretrain_icvf as train, probe_spearman, split_episodes
+
+    dataset = store.resolve(data_ref, "dataset")
+    info = dataset.env
+    episodes = load_dataset(dataset)
+    validate_episodes(episodes, info, f"dataset {dataset.ref}")
+    name = name or default_name(info.id, "identity" if identity else "icvf")
+    if identity:
+        held_out = split_episodes(episodes, config.holdout_fraction, seed)[1]
+        probe = probe_spearman(lambda x: x, held_out)
+        record = {"type": "identity", "obs_dim": info.obs_dim, "embedding_dim": info.obs_dim}
+        with store.create("embedding", name, env=info, config=record, seed=seed, parents=[dataset]) as writer:
+            writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe})
+        return store.resolve(f"embedding/{name}", "embedding")
+    require_positive(config.steps, "--steps")
+    result = train(episodes, info.obs_dim, config, seed, device, on_progress)
+    record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.embedding_dim, "icvf": cfg.to_dict(config)}
+    with store.create("embedding", name, env=info, config=record, seed=seed, parents=[dataset]) as writer:
+        save_file({k: v.contiguous() for k, v in result.encoder.state_dict().items()}, str(writer.path("phi.safetensors")))
+        result.log.to_csv(writer.path("loss.csv"), index=False)
+        writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
+    return store.resolve(f"embedding/{name}", "embedding")
+
+
+def load_encoder(artifact: Artifact, device: torch.device | str = "cpu"):
+    from .icvf import Encoder
+
+    record = artifact.config
+    icvf_config = cfg.from_dict(cfg.ICVFConfig, record["icvf"]) if record["type"] == "icvf" else None
+    encoder = Encoder(record["obs_dim"], icvf_config)
+    if icvf_config is not None:
+        try:
+            encoder.load_state_dict(load_file(str(artifact.file("phi.safetensors"))))
+        except (RuntimeError, KeyError) as exc:
+            raise LwailError(f"{artifact.ref} holds weights that do not fit its recorded config: {exc}") from None
+    return encoder.to(device).requires_grad_(False).eval()
+
+
+# ------------------------------------------------------------------------------ discriminator
+def _expert_pairs(demos: Artifact, episodes_wanted: int) -> tuple[np.ndarray, np.ndarray]:
+    from .data import transition_pairs
+
+    episodes, _ = load_demos(demos)
+    if episodes_wanted <= 0:
+        raise LwailError(f"--expert-episodes must be at least 1, got {episodes_wanted}")
+    if episodes_wanted > len(episodes):
+        raise LwailError(f"--expert-episodes {episodes_wanted}: {demos.ref} holds only {len(episodes)} episodes")
+    return transition_pairs(episodes[:episodes_wanted])
+
+
+def warmup_discriminator(
+    store: Store,
+    embedding_ref: str,
+    demos_ref: str,
+    config: cfg.DiscriminatorConfig,
+    expert_episodes: int,
+    seed: int,
+    name: str | None,
+    device: torch.device,
+    data_ref: str | None = None,
+    on_progress: Callable[[int, float], None] | None = None,
+) -> Artifact:
+    """Warm f up against true (s, s') pairs of the random policy (data set I) vs expert pairs."""
+    from .data import transition_pairs
+    from .discriminator import Critic, DiscriminatorTrainer
+
+    embedding = store.resolve(embedding_ref, "embedding")
+    demos = store.resolve(demos_ref, "demos")
+    info = embedding.env
+    require_same_env(info, demos.env, f"demos {demos.ref}")
+    dataset = store.resolve(data_ref, "dataset") if data_ref else store.resolve(embedding.manifest["parents"][0]["ref"], "dataset")
+    require_same_env(info, dataset.env, f"dataset {dataset.ref}")
+    require_positive(config.warmup_steps, "warm-up steps")
+    torch.manual_seed(seed)
+    encoder = load_encoder(embedding, device)
+    states, next_states = transition_pairs(load_dataset(dataset))
+    pick = np.random.default_rng(seed).permutation(len(states))[: config.warmup_transitions]
+    expert = _features(encoder, *_expert_pairs(demos, expert_episodes), device)
+    policy = _features(encoder, states[pick], next_states[pick], device)
+    critic = Critic(expert.shape[1], config.hidden).to(device)
+    trainer = DiscriminatorTrainer(critic, config)
+    chunk = max(1, config.warmup_steps // 50)
+    for done in range(0, config.warmup_steps, chunk):
+        steps = min(chunk, config.warmup_steps - done)
+        wasserstein = trainer.train(expert, policy, steps)
+        if on_progress is not None:
+            on_progress(done + steps, float(wasserstein))
+    name = name or f"{embedding.name}-disc"
+    record = {"disc": cfg.to_dict(config), "embedding_type": embedding.config["type"], "input_dim": expert.shape[1], "expert_episodes": expert_episodes}
+    with store.create("discriminator", name, env=info, config=record, seed=seed, parents=[embedding, demos, dataset]) as writer:
+        save_file({k: v.detach().cpu().contiguous() for k, v in critic.state_dict().items()}, str(writer.path("critic.safetensors")))
+        with torch.no_grad():
+            writer.metrics.update({
+                "wasserstein_estimate": float(wasserstein),
+                "reward_expert_mean": float(trainer.reward(expert).mean()),
+                "reward_random_mean": float(trainer.reward(policy).mean()),
+            })
+    return store.resolve(f"discriminator/{name}", "discriminator")
+
+
+@torch.no_grad()
+def _features(encoder, states: np.ndarray, next_states: np.ndarray, device) -> torch.Tensor:
+    from .discriminator import transition_features
+
+    return transition_features(encoder, torch.as_tensor(states, device=device), torch.as_tensor(next_states, device=device))
+
+
+def load_critic(artifact: Artifact, device: torch.device | str = "cpu"):
+    from .discriminator import Critic
+
+    critic = Critic(artifact.config["input_dim"], tuple(artifact.config["disc"]["hidden"]))
+    try:
+        critic.load_state_dict(load_file(str(artifact.file("critic.safetensors"))))
+    except (RuntimeError, KeyError) as exc:
+        raise LwailError(f"{artifact.ref} holds weights that do not fit its recorded config: {exc}") from None
+    return critic.to(device)
+
+
+# ------------------------------------------------------------------------------ imitation
+def imitate(
+    store: Store,
+    env_id: str,
+    demos_ref: str,
+    embedding_ref: str,
+    disc_ref: str,
+    config: cfg.ImitationConfig,
+    seed: int,
+    name: str | None,
+    device: torch.device,
+    resume: bool,
+    on_progress: Callable[[int, RunState], None] | None = None,
+) -> Artifact:
+    from .discriminator import DiscriminatorTrainer
+    from .imitation import AdversarialReward
+
+    require_positive(config.train.steps, "--steps")
+    info = describe_env(env_id)
+    demos = store.resolve(demos_ref, "demos")
+    embedding = store.resolve(embedding_ref, "embedding")
+    disc = store.resolve(disc_ref, "discriminator")
+    for artifact in (demos, embedding, disc):
+        require_same_env(info, artifact.env, f"{artifact.kind} {artifact.ref}")
+    disc_embedding = next(p for p in disc.manifest["parents"] if p["ref"].startswith("embedding/"))
+    if disc_embedding["hash"] != embedding.hash:
+        raise LwailError(
+            f"{disc.ref} was warmed up on {disc_embedding['ref']} ({disc.config['embedding_type']}), "
+            f"not on {embedding.ref} ({embedding.config['type']}): warm up a discriminator on this embedding"
+        )
+    name = name or default_name(env_id, "lwail")
+    run = prepare_run(store, "policy", name, resume)
+    if run.resume is not None and run.resume.get("config") != cfg.to_dict(config):
+        raise LwailError(f"the checkpoint of policy/{name} was made with another config; rerun without --resume")
+    encoder = load_encoder(embedding, device)
+    expert = _features(encoder, *_expert_pairs(demos, config.expert_episodes), device)
+    trainer = DiscriminatorTrainer(load_critic(disc, device), config.disc)
+    capacity = min(config.td3.buffer_size, config.train.steps)
+    reward_model = AdversarialReward(encoder, trainer, expert, capacity, config.disc)
+    agent = TD3(info, config.td3, device)
+    buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
+
+    def checkpoint(state: dict) -> None:
+        run.on_checkpoint({**state, "config": cfg.to_dict(config)})
+
+    reference = reference_for_env(env_id, demos)
+    result = train_td3(
+        env_id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model,
+        reference=reference, resume=run.resume, on_progress=on_progress, on_checkpoint=checkpoint,
+    )
+    record = cfg.to_dict(config)
+    with store.create("policy", name, env=info, config=record, seed=seed, parents=[demos, embedding, disc], extra={"trained_on": "LWAIL pseudo-reward"}) as writer:
+        save_actor(writer.path("actor.safetensors"), agent)
+        save_file({k: v.detach().cpu().contiguous() for k, v in trainer.critic.state_dict().items()}, str(writer.path("critic.safetensors")))
+        _write_history(writer.path("learning_curve.csv"), result)
+        _plot_run(writer, result, env_id, reference)
+        writer.metrics.update(_final_metrics(result))
+        if reference is not None:
+            writer.metrics["reference"] = reference.source
+    store.clear_checkpoint("policy", name)
+    return store.resolve(f"policy/{name}", "policy")
+
+
+def _plot_run(writer, run: RunState, env_id: str, reference: Reference | None) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    history = pd.DataFrame(run.history)
+    score = "normalized_score" if reference is not None else "return_mean"
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(history["step"], history[score], marker="o")
+    ax.set(xlabel="environment steps", ylabel=score.replace("_", " "), title=f"LWAIL on {env_id}")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(writer.path("learning_curve.png"), dpi=100)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    points = ax.scatter(history["pseudo_reward_mean"], history["return_mean"], c=history["step"], cmap="viridis")
+    fig.colorbar(points, label="environment steps")
+    ax.set(xlabel="mean pseudo-reward σ(−f) of recent transitions", ylabel="true return", title="pseudo-reward vs true return")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(writer.path("pseudo_reward_vs_return.png"), dpi=100)
+    plt.close(fig)
+
+
+# ------------------------------------------------------------------------------ quickstart
+@dataclass(frozen=True)
+class QuickstartPlan:
+    collect_transitions: int
+    icvf: cfg.ICVFConfig
+    imitation: cfg.ImitationConfig
+
+
+def quickstart_plan(env_id: str, steps: int | None) -> QuickstartPlan:
+    """Budgets for the one-command demo: minutes on a 2-core CPU for InvertedPendulum, paper budgets otherwise."""
+    bundled_demos_path(env_id)  # refuses an env without bundled demos before any work
+    if env_id == "InvertedPendulum-v5":
+        steps = steps or 15_000
+        return QuickstartPlan(
+            collect_transitions=10_000,
+            icvf=cfg.ICVFConfig(steps=1_000, log_every=250),
+            imitation=cfg.ImitationConfig(
+                td3=cfg.TD3Config(random_steps=2_000, learning_starts=2_000),
+                train=cfg.TrainConfig(steps=steps, eval_every=max(1, steps // 5), checkpoint_every=steps),
+                disc=cfg.DiscriminatorConfig(warmup_steps=500, update_every=2_000),
+            ),
+        )
+    steps = steps or 1_000_000
+    return QuickstartPlan(
+        collect_transitions=10_000,
+        icvf=cfg.ICVFConfig(),
+        imitation=cfg.ImitationConfig(train=cfg.TrainConfig(steps=steps, eval_every=min(10_000, steps))),
+    )

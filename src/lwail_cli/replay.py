@@ -52,7 +52,7 @@ class ReplayBuffer:
 
     def rows_since(self, count: int) -> np.ndarray:
         """Rows written since the buffer held ``count`` transitions (at most one full lap)."""
-        first = max(count, self.count - self.capacity)
+        first = max(count, self.count - self.capacity, 0)
         return np.arange(first, self.count) % self.capacity
 
     def sample(self, batch_size: int, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:

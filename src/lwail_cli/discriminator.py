@@ -1,0 +1,78 @@
+"""The Kantorovich–Rubinstein critic f (the discriminator) and the pseudo-reward σ(−f).
+
+f is trained to be low on expert transitions and high on the policy's (SPEC.md, stage 2):
+loss = mean f(x_E) − mean f(x_π) + λ·mean(‖∇f(x̂)‖₂ − 1)², on x = [φ(s), φ(s') − φ(s)].
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from .config import DiscriminatorConfig
+from .nets import mlp
+
+
+class Critic(nn.Module):
+    def __init__(self, in_dim: int, hidden: tuple[int, ...]):
+        super().__init__()
+        self.net = mlp(in_dim, hidden, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x).squeeze(-1)
+
+
+def transition_features(encode: nn.Module, states: torch.Tensor, next_states: torch.Tensor) -> torch.Tensor:
+    """``[φ(s), φ(s') − φ(s)]``, the critic's input."""
+    both = encode(torch.cat([states, next_states]))
+    phi, phi_next = both.chunk(2)
+    return torch.cat([phi, phi_next - phi], dim=-1)
+
+
+def gradient_penalty(critic: Critic, expert: torch.Tensor, policy: torch.Tensor) -> torch.Tensor:
+    """WGAN-GP: mean (‖∇f(x̂)‖₂ − 1)² at per-sample interpolates of expert and policy inputs."""
+    epsilon = torch.rand(expert.shape[0], 1, device=expert.device)
+    mixed = (epsilon * expert + (1.0 - epsilon) * policy).requires_grad_(True)
+    (gradient,) = torch.autograd.grad(critic(mixed).sum(), mixed, create_graph=True)
+    return (gradient.norm(2, dim=-1) - 1.0).square().mean()
+
+
+def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, config: DiscriminatorConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """The loss to minimise and the critic's Wasserstein estimate ``E_π f − E_E f``."""
+    f_expert, f_policy = critic(expert), critic(policy)
+    if config.tanh:
+        f_expert, f_policy = torch.tanh(f_expert), torch.tanh(f_policy)
+    wasserstein = f_policy.mean() - f_expert.mean()
+    return -wasserstein + config.gp_weight * gradient_penalty(critic, expert, policy), wasserstein.detach()
+
+
+class DiscriminatorTrainer:
+    """Full-batch critic updates: ``batch_size`` expert rows drawn with replacement against the policy rows."""
+
+    def __init__(self, critic: Critic, config: DiscriminatorConfig):
+        self.critic = critic
+        self.config = config
+        device = next(critic.parameters()).device
+        self.optimizer = torch.optim.Adam(critic.parameters(), lr=config.lr, fused=device.type in ("cpu", "cuda"))
+        self.last_wasserstein = torch.zeros((), device=device)
+
+    def train(self, expert: torch.Tensor, policy: torch.Tensor, steps: int) -> torch.Tensor:
+        """``steps`` updates; each draws expert rows (with replacement) to match the policy rows."""
+        for _ in range(steps):
+            index = torch.randint(0, expert.shape[0], (policy.shape[0],), device=expert.device)
+            loss, self.last_wasserstein = critic_loss(self.critic, expert[index], policy, self.config)
+            self.optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            self.optimizer.step()
+        return self.last_wasserstein
+
+    @torch.no_grad()
+    def reward(self, features: torch.Tensor) -> torch.Tensor:
+        return torch.sigmoid(-self.critic(features))
+
+    def state_dict(self) -> dict:
+        return {"critic": self.critic.state_dict(), "optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.critic.load_state_dict(state["critic"])
+        self.optimizer.load_state_dict(state["optimizer"])
