@@ -44,8 +44,10 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _content_hash(file_hashes: dict[str, str]) -> str:
+def _content_hash(file_hashes: dict[str, str], env: dict, config: dict) -> str:
+    """What the artifact is: its data files, and the env and config that give them meaning."""
     lines = "".join(f"{name}:{digest}\n" for name, digest in sorted(file_hashes.items()))
+    lines += json.dumps({"env": env, "config": config}, sort_keys=True)
     return hashlib.sha256(lines.encode()).hexdigest()
 
 
@@ -166,7 +168,7 @@ class Store:
                 raise LwailError(f"{path} is missing its data file {filename}")
             if _sha256(target) != expected:
                 raise LwailError(f"{path}/{filename} does not match its recorded hash: the artifact was modified")
-        if _content_hash(file_hashes) != manifest.get("hash"):
+        if _content_hash(file_hashes, manifest.get("env"), manifest.get("config")) != manifest.get("hash"):
             raise LwailError(f"{path} has an inconsistent content hash in its manifest")
         return Artifact(path=path, manifest=manifest)
 
@@ -238,7 +240,7 @@ class Store:
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "metrics": writer.metrics,
             "files": file_hashes,
-            "hash": _content_hash(file_hashes),
+            "hash": _content_hash(file_hashes, env.to_dict(), config),
             **extra,
         }
         parent_dir = self.root / kind / name

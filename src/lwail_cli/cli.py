@@ -70,20 +70,34 @@ def command(parent: typer.Typer, name: str):
     return register
 
 
+class ProgressBar:
+    """A tqdm bar that appears on the first progress report, so input errors print alone."""
+
+    def __init__(self, total: int, description: str):
+        self.total, self.description, self.bar = total, description, None
+
+    def to(self, done: int, **postfix) -> None:
+        if self.bar is None:
+            self.bar = tqdm(total=self.total, desc=self.description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5)
+        self.bar.update(done - self.bar.n)
+        if postfix:
+            self.bar.set_postfix(postfix, refresh=False)
+
+
 @contextmanager
 def progress_bar(total: int, description: str):
-    bar = tqdm(total=total, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5)
+    bar = ProgressBar(total, description)
     try:
         yield bar
     finally:
-        bar.close()
+        if bar.bar is not None:
+            bar.bar.close()
 
 
-def run_progress(bar: tqdm):
+def run_progress(bar: ProgressBar):
     """A training-loop callback that moves the bar and shows the latest return and score."""
 
     def update(step: int, run) -> None:
-        bar.update(step - bar.n)
         shown = {}
         if run.episode_returns:
             shown["ep_return"] = f"{run.episode_returns[-1]:.1f}"
@@ -92,7 +106,7 @@ def run_progress(bar: tqdm):
             shown["eval"] = f"{last['return_mean']:.1f}"
             if "normalized_score" in last:
                 shown["score"] = f"{last['normalized_score']:.1f}"
-        bar.set_postfix(shown, refresh=False)
+        bar.to(step, **shown)
 
     return update
 
@@ -123,7 +137,7 @@ def collect(
     else:
         pipeline.require_positive(transitions, "--transitions")
         with progress_bar(transitions, f"collect {env_id}") as bar:
-            artifact = pipeline.collect(store(), env_id, transitions, seed, name, on_step=lambda n: bar.update(n - bar.n) if n % 500 == 0 or n == transitions else None)
+            artifact = pipeline.collect(store(), env_id, transitions, seed, name, on_step=lambda n: bar.to(n) if n % 500 == 0 or n == transitions else None)
     say_written(artifact)
 
 
@@ -255,11 +269,7 @@ def pretrain_icvf(
         pipeline.require_positive(config.batch_size, "--batch-size")
         with progress_bar(config.steps, "pretrain-icvf") as bar:
 
-            def progress(step: int, loss: float) -> None:
-                bar.update(step - bar.n)
-                bar.set_postfix(loss=f"{loss:.4f}", refresh=False)
-
-            artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=False, on_progress=progress)
+            artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=False, on_progress=lambda n, loss: bar.to(n, loss=f"{loss:.4f}"))
     say_written(artifact)
 
 
@@ -278,12 +288,10 @@ def warmup_disc(
     config = cfg.with_overrides(cfg.DiscriminatorConfig(), overrides)
     pipeline.require_positive(config.warmup_steps, "warmup_steps")
     with progress_bar(config.warmup_steps, "warmup-disc") as bar:
-
-        def progress(step: int, wasserstein: float) -> None:
-            bar.update(step - bar.n)
-            bar.set_postfix(wasserstein=f"{wasserstein:.3f}", refresh=False)
-
-        artifact = pipeline.warmup_discriminator(store(), embedding, demos, config, expert_episodes, seed, name, pipeline.resolve_device(device), data, progress)
+        artifact = pipeline.warmup_discriminator(
+            store(), embedding, demos, config, expert_episodes, seed, name, pipeline.resolve_device(device), data,
+            lambda n, wasserstein: bar.to(n, wasserstein=f"{wasserstein:.3f}"),
+        )
     say_written(artifact)
 
 
@@ -330,13 +338,13 @@ def quickstart(
     demos = pipeline.import_bundled_demos(s, env_id, None)
     say_written(demos)
     with progress_bar(plan.collect_transitions, "1/4 collect") as bar:
-        data = pipeline.collect(s, env_id, plan.collect_transitions, seed, None, on_step=lambda n: bar.update(n - bar.n) if n % 500 == 0 else None)
+        data = pipeline.collect(s, env_id, plan.collect_transitions, seed, None, on_step=lambda n: bar.to(n) if n % 500 == 0 else None)
     say_written(data)
     with progress_bar(plan.icvf.steps, "2/4 pretrain-icvf") as bar:
-        embedding = pipeline.pretrain_icvf(s, data.ref, plan.icvf, seed, None, resolved, identity=False, on_progress=lambda n, loss: bar.update(n - bar.n))
+        embedding = pipeline.pretrain_icvf(s, data.ref, plan.icvf, seed, None, resolved, identity=False, on_progress=lambda n, loss: bar.to(n))
     say_written(embedding)
     with progress_bar(plan.imitation.disc.warmup_steps, "3/4 warmup-disc") as bar:
-        disc = pipeline.warmup_discriminator(s, embedding.ref, demos.ref, plan.imitation.disc, 1, seed, None, resolved, None, lambda n, w: bar.update(n - bar.n))
+        disc = pipeline.warmup_discriminator(s, embedding.ref, demos.ref, plan.imitation.disc, 1, seed, None, resolved, None, lambda n, w: bar.to(n))
     say_written(disc)
     with progress_bar(plan.imitation.train.steps, "4/4 imitate") as bar:
         policy = pipeline.imitate(s, env_id, demos.ref, embedding.ref, disc.ref, plan.imitation, seed, None, resolved, False, run_progress(bar))

@@ -209,8 +209,8 @@ def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     try:
         with np.load(path) as archive:
             arrays = {key: archive[key] for key in archive.files}
-    except (OSError, ValueError) as exc:
-        raise LwailError(f"cannot read {path} as a .npz file: {exc}") from None
+    except (OSError, ValueError, EOFError) as exc:  # an empty file raises EOFError
+        raise LwailError(f"cannot read {path} as a .npz file: {exc or 'it is empty'}") from None
     for key in ("observations", "episode_ends"):
         if key not in arrays:
             raise LwailError(f"{path} has no {key!r} array (it has: {', '.join(arrays) or 'nothing'})")

@@ -189,6 +189,7 @@ def train_expert(
     run = prepare_run(store, "policy", name, resume)
     if run.resume is not None and run.resume.get("config") != cfg.to_dict(config):
         raise LwailError(f"the checkpoint of policy/{name} was made with another config; rerun without --resume")
+    torch.manual_seed(seed)
     agent = TD3(info, config.td3, device)
     buffer = ReplayBuffer(min(config.td3.buffer_size, config.train.steps), info.obs_dim, info.act_dim, device)
 
@@ -510,6 +511,7 @@ def imitate(
     run = prepare_run(store, "policy", name, resume)
     if run.resume is not None and run.resume.get("config") != cfg.to_dict(config):
         raise LwailError(f"the checkpoint of policy/{name} was made with another config; rerun without --resume")
+    torch.manual_seed(seed)
     encoder = load_encoder(embedding, device)
     expert = _features(encoder, *_expert_pairs(demos, config.expert_episodes), device)
     trainer = DiscriminatorTrainer(load_critic(disc, device), config.disc)

@@ -74,17 +74,25 @@ def _env_state(env: gym.Env) -> dict:
         "action_space": env.action_space.np_random.bit_generator.state,
         "elapsed_steps": getattr(_time_limit(env), "_elapsed_steps", None),
     }
-    if hasattr(env.unwrapped, "set_state"):  # MuJoCo: the physics state itself
-        state["qpos"] = env.unwrapped.data.qpos.copy()
-        state["qvel"] = env.unwrapped.data.qvel.copy()
+    if hasattr(env.unwrapped, "model") and hasattr(env.unwrapped, "data"):  # MuJoCo: the full integration state
+        import mujoco
+
+        model, data = env.unwrapped.model, env.unwrapped.data
+        physics = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_INTEGRATION))
+        mujoco.mj_getState(model, data, physics, mujoco.mjtState.mjSTATE_INTEGRATION)
+        state["mujoco"] = physics
     return state
 
 
 def _restore_env_state(env: gym.Env, state: dict) -> None:
     env.unwrapped.np_random.bit_generator.state = state["np_random"]
     env.action_space.np_random.bit_generator.state = state["action_space"]
-    if "qpos" in state:
-        env.unwrapped.set_state(state["qpos"], state["qvel"])
+    if "mujoco" in state:  # warm-start and actuator state included, so the rollout continues bit for bit
+        import mujoco
+
+        model, data = env.unwrapped.model, env.unwrapped.data
+        mujoco.mj_setState(model, data, state["mujoco"], mujoco.mjtState.mjSTATE_INTEGRATION)
+        mujoco.mj_forward(model, data)
     limit = _time_limit(env)
     if limit is not None and state["elapsed_steps"] is not None:
         limit._elapsed_steps = state["elapsed_steps"]
@@ -112,13 +120,14 @@ def train_td3(
     on_checkpoint: Callable[[dict], None] | None = None,
     progress_every: int = 500,
 ) -> RunState:
-    """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state."""
+    """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state.
+
+    Seed torch before building ``agent`` (and anything else random) for a reproducible run."""
     reward_model = reward_model or EnvironmentReward()
     env = make_env(env_id)
     obs, _ = env.reset(seed=seed)
     env.action_space.seed(seed)
     noise_rng = np.random.default_rng(seed)
-    torch.manual_seed(seed)
     run = RunState()
     if resume is not None:
         agent.load_state_dict(resume["agent"])

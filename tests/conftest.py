@@ -1,0 +1,44 @@
+import numpy as np
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from lwail_cli.artifacts import Store
+from lwail_cli.cli import app
+
+
+@pytest.fixture(autouse=True)
+def _few_threads():
+    torch.set_num_threads(2)
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    monkeypatch.setenv("LWAIL_STORE", str(tmp_path / "store"))
+    return Store(tmp_path / "store")
+
+
+@pytest.fixture
+def cli(store):
+    runner = CliRunner()
+
+    def invoke(*args):
+        return runner.invoke(app, [str(a) for a in args])
+
+    return invoke
+
+
+def committed_versions(store: Store) -> list:
+    return [(kind, name, versions) for kind, name, versions, _ in store.list()]
+
+
+def write_states_npz(path, episodes, obs_dim, length=20, seed=0, returns=None):
+    rng = np.random.default_rng(seed)
+    observations = rng.normal(size=(episodes * length, obs_dim)).astype(np.float32)
+    ends = np.zeros(len(observations), dtype=bool)
+    ends[length - 1 :: length] = True
+    arrays = {"observations": observations, "episode_ends": ends}
+    if returns is not None:
+        arrays["returns"] = np.asarray(returns, dtype=np.float64)
+    np.savez(path, **arrays)
+    return path

@@ -1,0 +1,76 @@
+import json
+
+import pytest
+
+from lwail_cli.artifacts import SCHEMA_VERSION, Store
+from lwail_cli.envs import describe_env
+from lwail_cli.errors import LwailError
+
+ENV = describe_env("InvertedPendulum-v5")
+
+
+def write(store, name="demo", payload=b"weights", kind="embedding", parents=()):
+    with store.create(kind, name, env=ENV, config={"lr": 0.1}, seed=3, parents=list(parents)) as writer:
+        writer.path("data.bin").write_bytes(payload)
+        writer.metrics["score"] = 1.5
+    return store.resolve(f"{kind}/{name}", kind)
+
+
+def test_round_trip_records_manifest_and_data(store):
+    artifact = write(store)
+    assert artifact.file("data.bin").read_bytes() == b"weights"
+    manifest = artifact.manifest
+    assert (manifest["kind"], manifest["name"], manifest["version"], manifest["schema_version"]) == ("embedding", "demo", 1, SCHEMA_VERSION)
+    assert manifest["env"]["id"] == "InvertedPendulum-v5" and manifest["env"]["obs_dim"] == 4
+    assert manifest["config"] == {"lr": 0.1} and manifest["seed"] == 3 and manifest["metrics"] == {"score": 1.5}
+    assert set(manifest) >= {"package_version", "created", "files", "hash", "parents"}
+
+
+def test_rerun_writes_a_new_version_and_refs_resolve(store):
+    first = write(store, payload=b"one")
+    second = write(store, payload=b"two")
+    assert (first.version, second.version) == (1, 2)
+    assert store.resolve("demo", "embedding").version == 2
+    assert store.resolve("demo@v1", "embedding").file("data.bin").read_bytes() == b"one"
+    assert store.resolve(str(first.path), "embedding").version == 1
+    child = write(store, name="child", kind="discriminator", parents=[first])
+    assert child.manifest["parents"] == [{"ref": "embedding/demo@v1", "hash": first.hash}]
+
+
+def test_crash_while_writing_leaves_no_visible_version(store):
+    write(store)
+    with pytest.raises(RuntimeError):
+        with store.create("embedding", "demo", env=ENV, config={}, seed=0) as writer:
+            writer.path("data.bin").write_bytes(b"half")
+            raise RuntimeError("killed mid-write")
+    assert store.resolve("demo", "embedding").version == 1
+    assert [v for _, _, v, _ in store.list()] == [[1]]
+    assert not any((store.root / ".tmp").iterdir())
+
+
+def test_validation_refuses_tampering_wrong_kind_schema_and_missing(store):
+    artifact = write(store)
+    with pytest.raises(LwailError, match="is a embedding artifact, but a policy is needed"):
+        store.resolve("demo", "policy")
+    with pytest.raises(LwailError, match="no version v7"):
+        store.resolve("demo@v7", "embedding")
+    with pytest.raises(LwailError, match="no embedding artifact named 'other'"):
+        store.resolve("other", "embedding")
+    artifact.file("data.bin").write_bytes(b"tampered")
+    with pytest.raises(LwailError, match="does not match its recorded hash"):
+        store.resolve("demo", "embedding")
+    artifact.file("data.bin").write_bytes(b"weights")
+    manifest = json.loads(artifact.file("manifest.json").read_text())
+    manifest["schema_version"] = SCHEMA_VERSION + 1
+    artifact.file("manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(LwailError, match="schema version"):
+        store.resolve("demo", "embedding")
+
+
+def test_corrupt_checkpoint_is_refused_clearly(store):
+    store.save_checkpoint("policy", "run", {"step": 5})
+    assert store.load_checkpoint("policy", "run") == {"step": 5}
+    path = store.root / ".runs" / "policy" / "run" / "checkpoint.pt"
+    path.write_bytes(b"garbage" * 10)
+    with pytest.raises(LwailError, match="corrupt"):
+        store.load_checkpoint("policy", "run")

@@ -1,0 +1,79 @@
+"""Every bad input: one line on stderr, exit code 1, no traceback, no artifact written."""
+
+import numpy as np
+import pytest
+
+from conftest import committed_versions, write_states_npz
+
+
+def assert_refused(result, store, before, message):
+    assert result.exit_code == 1, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output
+    assert result.output.strip().count("\n") == 0, result.output
+    assert committed_versions(store) == before
+
+
+@pytest.fixture
+def seeded(cli, store, tmp_path):
+    """A store holding InvertedPendulum demos."""
+    write_states_npz(tmp_path / "demos.npz", episodes=2, obs_dim=4, returns=[10.0, 12.0])
+    assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "demos.npz", "--name", "ip").exit_code == 0
+    return committed_versions(store)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("collect", "NoSuchEnv-v0"), "unknown environment 'NoSuchEnv-v0'"),
+        (("collect", "CartPole-v1"), "Discrete action space"),
+        (("collect", "Hopper-v5", "--transitions", "0"), "--transitions must be positive"),
+        (("collect", "Hopper-v5", "--from-minari", "mujoco/hopper/expert-v0"), "not in the local Minari store"),
+        (("expert", "train", "InvertedPendulum-v5", "--steps", "-5"), "--steps must be positive"),
+        (("expert", "train", "InvertedPendulum-v5", "--steps", "10", "--resume"), "no checkpoint"),
+        (("expert", "record", "missing"), "no policy artifact named 'missing'"),
+        (("expert", "record", "ip"), "is a demos artifact, but a policy is needed"),
+        (("eval", "ip"), "is a demos artifact, but a policy is needed"),
+        (("pretrain-icvf", "ip"), "is a demos artifact, but a dataset is needed"),
+        (("imitate", "InvertedPendulum-v5", "--demos", "ip", "--embedding", "nope", "--disc", "x", "--expert-episodes", "0"), "no embedding artifact named 'nope'"),
+        (("show", "policy/none"), "no policy artifact named 'none'"),
+    ],
+)
+def test_bad_input_is_one_clear_line(cli, store, seeded, args, message):
+    assert_refused(cli(*args), store, seeded, message)
+
+
+def test_demos_with_the_wrong_observation_shape_are_refused(cli, store, seeded, tmp_path):
+    write_states_npz(tmp_path / "hopper_like.npz", episodes=2, obs_dim=11)
+    result = cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "hopper_like.npz")
+    assert_refused(result, store, seeded, "observations have 4 dims")
+
+
+def test_nan_and_empty_data_files_are_refused(cli, store, seeded, tmp_path):
+    path = write_states_npz(tmp_path / "nan.npz", episodes=2, obs_dim=4)
+    arrays = dict(np.load(path))
+    arrays["observations"][3, 1] = np.nan
+    np.savez(path, **arrays)
+    assert_refused(cli("collect", "InvertedPendulum-v5", "--from-file", path), store, seeded, "NaN")
+    (tmp_path / "empty.npz").write_bytes(b"")
+    assert_refused(cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "empty.npz"), store, seeded, "cannot read")
+    assert_refused(cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "absent.npz"), store, seeded, "no such file")
+
+
+def test_mismatched_stage_artifacts_are_refused(cli, store, seeded, tmp_path):
+    write_states_npz(tmp_path / "data.npz", episodes=3, obs_dim=4)
+    assert cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "data.npz", "--name", "ipdata").exit_code == 0
+    assert cli("pretrain-icvf", "ipdata", "--kind", "identity", "--name", "ident").exit_code == 0
+    assert cli("pretrain-icvf", "ipdata", "--steps", "2", "--embedding-dim", "8", "--set", "hidden=8", "--name", "icvf").exit_code == 0
+    assert cli("warmup-disc", "ident", "ip", "--set", "warmup_steps=2", "--name", "disc").exit_code == 0
+    before = committed_versions(store)
+    stages = ("--demos", "ip", "--embedding", "ident", "--disc", "disc", "--steps", "50")
+    assert_refused(cli("warmup-disc", "ident", "ip", "--expert-episodes", "0"), store, before, "--expert-episodes must be at least 1")
+    assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--expert-episodes", "0"), store, before, "--expert-episodes must be at least 1")
+    assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--expert-episodes", "9"), store, before, "holds only 2 episodes")
+    assert_refused(cli("imitate", "Hopper-v5", *stages), store, before, "was made for InvertedPendulum-v5, not Hopper-v5")
+    mixed = ("--demos", "ip", "--embedding", "icvf", "--disc", "disc", "--steps", "50")
+    assert_refused(cli("imitate", "InvertedPendulum-v5", *mixed), store, before, "was warmed up on embedding/ident@v1 (identity)")
+    store.save_checkpoint("policy", "run", {"step": 1})
+    (store.root / ".runs" / "policy" / "run" / "checkpoint.pt").write_bytes(b"\x00garbage")
+    assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--name", "run", "--resume"), store, before, "is corrupt")

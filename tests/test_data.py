@@ -1,0 +1,61 @@
+import minari
+import numpy as np
+import pytest
+
+from lwail_cli.data import collect_random, flatten, read_npz, transition_pairs, write_npz
+from lwail_cli.envs import make_env
+from lwail_cli.errors import LwailError
+from lwail_cli.pipeline import collect, load_dataset
+
+
+def test_collect_keeps_boundaries_and_loads_with_minari(store):
+    artifact = collect(store, "Hopper-v5", 600, seed=1, name=None)
+    dataset = minari.MinariDataset(artifact.file("minari"))
+    assert dataset.total_steps == 600
+    episodes = list(dataset.iterate_episodes())
+    assert len(episodes) == artifact.metrics["episodes"] > 5  # a random Hopper falls within ~20-40 steps
+    for episode in episodes[:-1]:  # each finished episode ends in a fall (termination), not a truncation
+        assert episode.terminations[-1] and not episode.truncations.any()
+        assert not episode.terminations[:-1].any()
+        assert len(episode.observations) == len(episode.actions) + 1
+    last = episodes[-1]  # cut by the transition budget: a truncation, not a termination
+    assert last.truncations[-1] and not last.terminations.any()
+    loaded = load_dataset(artifact)
+    assert [e.terminated for e in loaded] == [True] * (len(loaded) - 1) + [False]
+    assert np.allclose(loaded[0].observations, episodes[0].observations)
+
+
+def test_pairs_never_cross_episode_boundaries():
+    env = make_env("Hopper-v5")
+    episodes = collect_random(env, 300, seed=0)
+    states, successors = transition_pairs(episodes)
+    assert len(states) == 300
+    flat = flatten(episodes)
+    assert flat.has_successor.sum() == 300
+    first_of_second = episodes[1].observations[0]
+    assert not any(np.allclose(s, first_of_second) for s in successors[: episodes[0].length])
+
+
+def test_npz_round_trip_keeps_episodes_terminations_and_returns(tmp_path):
+    env = make_env("InvertedPendulum-v5")
+    episodes = collect_random(env, 120, seed=0)
+    returns = np.array([e.episode_return for e in episodes])
+    write_npz(tmp_path / "d.npz", episodes, returns)
+    loaded, loaded_returns = read_npz(tmp_path / "d.npz")
+    assert [len(e.observations) for e in loaded] == [len(e.observations) for e in episodes]
+    assert [e.terminated for e in loaded] == [e.terminated for e in episodes]
+    assert np.allclose(loaded_returns, returns)
+
+
+@pytest.mark.parametrize(
+    "arrays, message",
+    [
+        ({"observations": np.zeros((0, 4)), "episode_ends": np.zeros(0, bool)}, "non-empty"),
+        ({"observations": np.zeros((5, 4))}, "no 'episode_ends'"),
+        ({"observations": np.zeros((5, 4)), "episode_ends": np.array([0, 0, 1, 0, 0], bool)}, "last observation"),
+    ],
+)
+def test_malformed_npz_files_are_refused(tmp_path, arrays, message):
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(LwailError, match=message):
+        read_npz(tmp_path / "bad.npz")

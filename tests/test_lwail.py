@@ -1,0 +1,167 @@
+import numpy as np
+import pytest
+import torch
+
+from lwail_cli import config as cfg
+from lwail_cli import pipeline
+from lwail_cli.data import Episode
+from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features
+from lwail_cli.envs import describe_env
+from lwail_cli.icvf import Encoder, ICVFLearner, GoalSampler, pretrain_icvf, probe_spearman
+from lwail_cli.imitation import AdversarialReward
+from lwail_cli.replay import ReplayBuffer
+from lwail_cli.training import train_td3
+from lwail_cli.td3 import TD3
+
+
+def chain_episodes(seed=0, cells=100, code_dim=16, episodes=60, length=40):
+    """A chain walked mostly rightwards, observed through a random code per cell: raw distances
+    between codes say nothing about how many steps apart two states are."""
+    rng = np.random.default_rng(seed)
+    codes = rng.normal(size=(cells, code_dim)).astype(np.float32)
+    result = []
+    for _ in range(episodes):
+        position, positions = int(rng.integers(0, cells // 3)), []
+        for _ in range(length + 1):
+            positions.append(position)
+            position = int(np.clip(position + (1 if rng.random() < 0.85 else -1), 0, cells - 1))
+        result.append(Episode(observations=codes[positions]))
+    return result
+
+
+def test_icvf_latent_distance_tracks_time_better_than_raw_states():
+    # (ICVF's TD loss rises while values grow from 0 towards their fixed point, so the probe is the check)
+    config = cfg.ICVFConfig(steps=1500, hidden=(32,), embedding_dim=32, log_every=500, lr=1e-3, gamma=0.9)
+    result = pretrain_icvf(chain_episodes(), obs_dim=16, config=config, seed=0)
+    assert abs(result.probe_raw) < 0.05  # random codes: raw distance says ~nothing about time apart
+    assert result.probe_latent > result.probe_raw + 0.08, (result.probe_latent, result.probe_raw)
+    assert result.log["probe_latent"].iloc[-1] > result.log["probe_latent"].iloc[0]
+
+
+def test_goal_sampler_respects_trajectories_and_rewards():
+    episodes = chain_episodes(episodes=5, length=10)
+    sampler = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=0.0, p_goal_trajectory=1.0, p_goal_random=0.0), torch.device("cpu"))
+    batch = sampler.sample(512)
+    assert torch.all(batch["intention_reward"] == -1) and torch.all(batch["intention_mask"] == 1)  # later states only
+    current = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=1.0, p_goal_trajectory=0.0, p_goal_random=0.0), torch.device("cpu")).sample(64)
+    assert torch.all(current["intention_reward"] == 0) and torch.all(current["intention_mask"] == 0)
+    assert torch.equal(current["intention"], current["s"])
+
+
+def test_gradient_penalty_of_a_linear_critic_is_known():
+    critic = Critic(3, hidden=())  # f(x) = w·x + b: its gradient is w everywhere
+    with torch.no_grad():
+        critic.net[0].weight.copy_(torch.tensor([[2.0, 1.0, 2.0]]))  # ‖w‖ = 3
+    expert, policy = torch.randn(100, 3), torch.randn(100, 3)
+    assert gradient_penalty(critic, expert, policy).item() == pytest.approx((3.0 - 1.0) ** 2)
+    with torch.no_grad():
+        critic.net[0].weight.copy_(torch.tensor([[0.6, 0.8, 0.0]]))  # ‖w‖ = 1: no penalty
+    assert gradient_penalty(critic, expert, policy).item() == pytest.approx(0.0, abs=1e-10)
+
+
+def test_critic_learns_to_separate_expert_from_policy():
+    config = cfg.DiscriminatorConfig(hidden=(16, 16))
+    torch.manual_seed(0)
+    trainer = DiscriminatorTrainer(Critic(2, config.hidden), config)
+    expert, policy = torch.randn(256, 2) + 2.0, torch.randn(256, 2) - 2.0
+    trainer.train(expert, policy, 200)
+    assert trainer.reward(expert).mean() > 0.9 > 0.1 > trainer.reward(policy).mean()
+    assert trainer.last_wasserstein > 3.0  # the means are ‖(4, 4)‖ ≈ 5.7 apart
+
+
+def test_relabelling_makes_every_reward_sigma_of_minus_current_f():
+    torch.manual_seed(0)
+    config = cfg.DiscriminatorConfig(hidden=(8,), update_every=50, update_steps=3)
+    encoder = Encoder(3, None)
+    trainer = DiscriminatorTrainer(Critic(6, config.hidden), config)
+    expert = torch.randn(40, 6)
+    model = AdversarialReward(encoder, trainer, expert, capacity=80, config=config)
+    buffer = ReplayBuffer(80, obs_dim=3, act_dim=1)
+    rng = np.random.default_rng(0)
+    weights_before = trainer.critic.net[0].weight.clone()
+    for step in range(1, 121):  # wraps the buffer and crosses two f updates
+        buffer.add(rng.normal(size=3), rng.normal(size=1), 123.0, rng.normal(size=3), False)
+        model.prepare(step, buffer)
+    assert not torch.equal(weights_before, trainer.critic.net[0].weight)
+    storage = buffer.storage
+    with torch.no_grad():
+        expected = torch.sigmoid(-trainer.critic(transition_features(encoder, storage["observations"], storage["next_observations"])))
+    assert torch.allclose(storage["rewards"][:, 0], expected, atol=1e-6)
+
+
+def _expert_config(steps, checkpoint_every):
+    td3 = cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64)
+    return cfg.ExpertConfig(td3=td3, train=cfg.TrainConfig(steps=steps, eval_every=steps, eval_episodes=2, checkpoint_every=checkpoint_every))
+
+
+class Killed(Exception):
+    pass
+
+
+def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
+    device = torch.device("cpu")
+    config = _expert_config(1200, 500)
+    straight = pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="straight", device=device, resume=False)
+
+    def kill_after_checkpoint(step, run):
+        if step == 1000:  # before the checkpoint at 1000 is written: steps 501-1000 are lost and redone
+            raise Killed
+
+    with pytest.raises(Killed):
+        pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="killed", device=device, resume=False, on_progress=kill_after_checkpoint)
+    assert store.load_checkpoint("policy", "killed")["run"]["step"] == 500
+    resumed = pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="killed", device=device, resume=True)
+    a = pipeline.load_policy(straight).state_dict()
+    b = pipeline.load_policy(resumed).state_dict()
+    assert all(torch.equal(a[key], b[key]) for key in a)
+    assert straight.metrics["return_mean"] == resumed.metrics["return_mean"]
+
+
+@pytest.mark.slow
+def test_lwail_imitates_inverted_pendulum_from_one_state_only_trajectory(store):
+    device = torch.device("cpu")
+    demos = pipeline.import_bundled_demos(store, "InvertedPendulum-v5", None)
+    data = pipeline.collect(store, "InvertedPendulum-v5", 3000, seed=0, name=None)
+    icvf = cfg.ICVFConfig(steps=300, hidden=(64,), embedding_dim=64, log_every=300)
+    embedding = pipeline.pretrain_icvf(store, data.ref, icvf, 0, None, device, identity=False)
+    disc_config = cfg.DiscriminatorConfig(warmup_steps=200, update_every=2000)
+    disc = pipeline.warmup_discriminator(store, embedding.ref, demos.ref, disc_config, 1, 0, None, device)
+    assert disc.metrics["reward_expert_mean"] > disc.metrics["reward_random_mean"]
+    config = cfg.ImitationConfig(
+        td3=cfg.TD3Config(random_steps=2000, learning_starts=2000),
+        train=cfg.TrainConfig(steps=14_000, eval_every=7_000, eval_episodes=5, checkpoint_every=14_000),
+        disc=disc_config,
+        expert_episodes=1,
+    )
+    policy = pipeline.imitate(store, "InvertedPendulum-v5", demos.ref, embedding.ref, disc.ref, config, 0, None, device, False)
+    assert policy.metrics["normalized_score"] > 80, policy.metrics
+    for artifact_file in ("actor.safetensors", "learning_curve.csv", "learning_curve.png", "pseudo_reward_vs_return.png"):
+        assert policy.file(artifact_file).is_file()
+    result = pipeline.evaluate(store, policy.ref, 5, 100, True, None)
+    assert result["normalized_score"] > 80 and "bundled-demos" in result["reference"]
+
+
+def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
+    device = torch.device("cpu")
+    demos = pipeline.import_bundled_demos(store, "InvertedPendulum-v5", None)
+    data = pipeline.collect(store, "InvertedPendulum-v5", 500, seed=0, name=None)
+    embedding = pipeline.pretrain_icvf(store, data.ref, cfg.ICVFConfig(), 0, None, device, identity=True)
+    disc_config = cfg.DiscriminatorConfig(hidden=(16, 16), warmup_steps=5, update_every=400, update_steps=3)
+    disc = pipeline.warmup_discriminator(store, embedding.ref, demos.ref, disc_config, 1, 0, None, device)
+    config = cfg.ImitationConfig(
+        td3=cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64),
+        train=cfg.TrainConfig(steps=1500, eval_every=1500, eval_episodes=2, checkpoint_every=500),
+        disc=disc_config,
+    )
+    stages = (store, "InvertedPendulum-v5", demos.ref, embedding.ref, disc.ref, config, 0)
+    straight = pipeline.imitate(*stages, "straight", device, False)
+
+    def kill(step, run):
+        if step == 1000:
+            raise Killed
+
+    with pytest.raises(Killed):
+        pipeline.imitate(*stages, "killed", device, False, on_progress=kill)
+    resumed = pipeline.imitate(*stages, "killed", device, True)
+    for name in ("actor.safetensors", "critic.safetensors"):
+        assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
