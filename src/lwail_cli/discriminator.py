@@ -71,8 +71,9 @@ class DiscriminatorTrainer:
         return torch.sigmoid(-self.critic(features))
 
     def state_dict(self) -> dict:
-        return {"critic": self.critic.state_dict(), "optimizer": self.optimizer.state_dict()}
+        return {"critic": self.critic.state_dict(), "optimizer": self.optimizer.state_dict(), "last_wasserstein": self.last_wasserstein}
 
     def load_state_dict(self, state: dict) -> None:
         self.critic.load_state_dict(state["critic"])
         self.optimizer.load_state_dict(state["optimizer"])
+        self.last_wasserstein = state["last_wasserstein"].to(self.last_wasserstein.device)

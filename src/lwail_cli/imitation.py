@@ -1,13 +1,14 @@
 """LWAIL's reward schedule inside the TD3 loop (paper Alg. 1, SPEC.md stage 3).
 
-Each transition's critic input ``[φ(s), φ(s')−φ(s)]`` is computed once, when it enters the buffer,
-and cached (φ is frozen). Every ``update_every`` env steps f is trained on the last
+A new transition is rewarded with the current f as it enters the buffer. Critic inputs
+``[φ(s), φ(s')−φ(s)]`` are cached (φ is frozen) one update window at a time. Every ``update_every`` env steps f is trained on the last
 ``update_every`` policy transitions against expert transitions, then every reward in the buffer is
 relabelled to σ(−f) with the new f, so all rewards always come from the current f.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from .config import DiscriminatorConfig
@@ -25,20 +26,37 @@ class AdversarialReward:
         self.expert_features = expert_features
         self.config = config
         self.features = torch.zeros(capacity, expert_features.shape[1], device=expert_features.device)
-        self.labeled = 0  # buffer.count up to which features and rewards are current
+        self.labeled = 0  # buffer.count up to which rewards are current
+        self.featured = 0  # buffer.count up to which features are cached (a multiple of update_every)
+        self.rebuild_to = 0  # after a resume: cache features up to here before they are used
         self.recent_reward = torch.zeros((), device=expert_features.device)
+
+    def _features(self, buffer: ReplayBuffer, rows: np.ndarray) -> torch.Tensor:
+        index = torch.as_tensor(rows, device=self.features.device)
+        storage = buffer.storage
+        return transition_features(self.encoder, storage["observations"][index], storage["next_observations"][index])
+
+    def _cache_features(self, buffer: ReplayBuffer, upto: int) -> None:
+        """Features in blocks of one update window each: the same blocks on a resumed run, so
+        the same floats (a matmul's rounding depends on its batch size)."""
+        window = self.config.update_every
+        for start in range(self.featured, upto, window):
+            stop = min(start + window, upto)
+            rows = np.arange(max(start, buffer.count - buffer.capacity), stop) % buffer.capacity
+            self.features[torch.as_tensor(rows, device=self.features.device)] = self._features(buffer, rows)
+        self.featured = upto
 
     @torch.no_grad()
     def prepare(self, step: int, buffer: ReplayBuffer) -> None:
+        buffer.flush()
+        if self.featured < self.rebuild_to:
+            self._cache_features(buffer, self.rebuild_to)
         if buffer.count > self.labeled:
-            buffer.flush()
-            rows = torch.as_tensor(buffer.rows_since(self.labeled), device=self.features.device)
-            storage = buffer.storage
-            x = transition_features(self.encoder, storage["observations"][rows], storage["next_observations"][rows])
-            self.features[rows] = x
-            storage["rewards"][rows] = self.trainer.reward(x).unsqueeze(1)
+            rows = buffer.rows_since(self.labeled)
+            buffer.storage["rewards"][torch.as_tensor(rows, device=self.features.device), 0] = self.trainer.reward(self._features(buffer, rows))
             self.labeled = buffer.count
         if step % self.config.update_every == 0:
+            self._cache_features(buffer, buffer.count)
             recent = torch.as_tensor(buffer.rows_since(buffer.count - self.config.update_every), device=self.features.device)
             with torch.enable_grad():
                 self.trainer.train(self.expert_features, self.features[recent], self.config.update_steps)
@@ -56,8 +74,11 @@ class AdversarialReward:
         return {"pseudo_reward_mean": float(self.recent_reward), "wasserstein_estimate": float(self.trainer.last_wasserstein)}
 
     def state_dict(self) -> dict:
-        return self.trainer.state_dict()
+        # features are not saved (they can be GBs): the restored buffer holds the current rewards,
+        # and the feature cache is rebuilt from the restored observations on the next step
+        return {"trainer": self.trainer.state_dict(), "labeled": self.labeled, "featured": self.featured, "recent_reward": self.recent_reward}
 
     def load_state_dict(self, state: dict) -> None:
-        self.trainer.load_state_dict(state)
-        self.labeled = 0  # features are recomputed from the restored buffer on the next step
+        self.trainer.load_state_dict(state["trainer"])
+        self.labeled, self.rebuild_to, self.featured = state["labeled"], state["featured"], 0
+        self.recent_reward = state["recent_reward"].to(self.features.device)
