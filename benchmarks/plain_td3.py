@@ -6,12 +6,13 @@ default (non-fused) Adam. Same sizes and hyper-parameters as ``lwail_cli.td3.TD3
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from lwail_cli.config import TD3Config
-from lwail_cli.envs import EnvInfo
+from lwail_cli.envs import EnvInfo, env_info, make_env
 from lwail_cli.nets import mlp
 from lwail_cli.td3 import Actor
 
@@ -66,3 +67,59 @@ class PlainTD3:
                 for net, target_net in ((self.critics, self.critics_target), (self.actor, self.actor_target)):
                     for param, target_param in zip(net.parameters(), target_net.parameters()):
                         target_param.data.copy_(cfg.tau * param.data + (1 - cfg.tau) * target_param.data)
+
+
+class PlainReplayBuffer:
+    """Fujimoto-style numpy buffer: sampled with numpy, copied into new tensors every batch."""
+
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int):
+        self.capacity, self.ptr, self.size = capacity, 0, 0
+        self.obs = np.zeros((capacity, obs_dim), np.float32)
+        self.act = np.zeros((capacity, act_dim), np.float32)
+        self.next_obs = np.zeros((capacity, obs_dim), np.float32)
+        self.reward = np.zeros((capacity, 1), np.float32)
+        self.not_done = np.zeros((capacity, 1), np.float32)
+
+    def add(self, obs, act, reward, next_obs, terminated) -> None:
+        i = self.ptr
+        self.obs[i], self.act[i], self.reward[i], self.next_obs[i], self.not_done[i] = obs, act, reward, next_obs, 1.0 - terminated
+        self.ptr, self.size = (i + 1) % self.capacity, min(self.size + 1, self.capacity)
+
+    def sample(self, batch_size: int) -> dict[str, torch.Tensor]:
+        i = np.random.randint(0, self.size, size=batch_size)
+        return {
+            "observations": torch.FloatTensor(self.obs[i]),
+            "actions": torch.FloatTensor(self.act[i]),
+            "next_observations": torch.FloatTensor(self.next_obs[i]),
+            "rewards": torch.FloatTensor(self.reward[i]),
+            "not_terminated": torch.FloatTensor(self.not_done[i]),
+        }
+
+
+def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed: int = 0) -> float:
+    """Env-steps/s of the textbook loop over ``steps`` steps after ``warmup`` random steps."""
+    import time
+
+    env = make_env(env_id, seed=seed)
+    info = env_info(env)
+    torch.manual_seed(seed)
+    agent = PlainTD3(info, config)
+    buffer = PlainReplayBuffer(warmup + steps, info.obs_dim, info.act_dim)
+    obs, _ = env.reset(seed=seed)
+    scale = (env.action_space.high - env.action_space.low) / 2
+    started = None
+    for step in range(warmup + steps):
+        if step == warmup:
+            started = time.perf_counter()
+        if step < warmup:
+            action = env.action_space.sample()
+        else:
+            with torch.no_grad():
+                action = agent.actor(torch.FloatTensor(obs.reshape(1, -1))).numpy()[0]
+            action = (action + np.random.normal(0, config.exploration_noise * scale)).clip(env.action_space.low, env.action_space.high)
+        next_obs, reward, terminated, truncated, _ = env.step(action)
+        buffer.add(obs, action, reward, next_obs, float(terminated))
+        obs = env.reset()[0] if terminated or truncated else next_obs
+        if step >= warmup:
+            agent.update(buffer.sample(config.batch_size))
+    return steps / (time.perf_counter() - started)

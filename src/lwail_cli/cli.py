@@ -35,6 +35,9 @@ NAME = typer.Option(None, "--name", help="Artifact name (default derived from th
 DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
 SET = typer.Option([], "--set", help="Override any hyper-parameter: section.field=value (see `lwail defaults`). Repeatable.")
 RESUME = typer.Option(False, "--resume", help="Continue the killed run of the same name from its last checkpoint.")
+STEPS = typer.Option(1_000_000, "--steps", help="Environment steps (one TD3 update each).")
+EVAL_EVERY = typer.Option(10_000, "--eval-every", help="Evaluate (10 deterministic episodes) every this many env steps.")
+CHECKPOINT_EVERY = typer.Option(50_000, "--checkpoint-every", help="Checkpoint every this many env steps.")
 
 
 def store() -> Store:
@@ -145,9 +148,9 @@ def collect(
 @command(expert_app, "train")
 def expert_train(
     env_id: str = typer.Argument(..., help="Gymnasium environment id with a continuous action space."),
-    steps: int = typer.Option(1_000_000, "--steps", help="Environment steps (one TD3 update each)."),
-    eval_every: int = typer.Option(10_000, "--eval-every", help="Evaluate every this many env steps."),
-    checkpoint_every: int = typer.Option(50_000, "--checkpoint-every", help="Checkpoint every this many env steps."),
+    steps: int = STEPS,
+    eval_every: int = EVAL_EVERY,
+    checkpoint_every: int = CHECKPOINT_EVERY,
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -301,10 +304,10 @@ def imitate(
     demos: str = typer.Option(..., "--demos", help="Demos artifact."),
     embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
     disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact."),
-    steps: int = typer.Option(1_000_000, "--steps", help="Environment steps (one TD3 update each)."),
+    steps: int = STEPS,
     expert_episodes: int = typer.Option(1, "--expert-episodes", help="Expert trajectories to imitate."),
-    eval_every: int = typer.Option(10_000, "--eval-every"),
-    checkpoint_every: int = typer.Option(50_000, "--checkpoint-every"),
+    eval_every: int = EVAL_EVERY,
+    checkpoint_every: int = CHECKPOINT_EVERY,
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,

@@ -8,6 +8,7 @@ All ensemble members run as one batched matmul; goal sampling happens on the com
 from __future__ import annotations
 
 import copy
+import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -188,13 +189,14 @@ def pretrain_icvf(
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     sampler = GoalSampler(train, config, torch.device(device))
     learner = ICVFLearner(obs_dim, config, device)
-    rows, running = [], torch.zeros((), device=device)
+    rows, running, started = [], torch.zeros((), device=device), time.perf_counter()
     for step in range(1, config.steps + 1):
         running += learner.update(sampler.sample(config.batch_size))
         if step % config.log_every == 0 or step == config.steps:
             span = config.log_every if step % config.log_every == 0 else step % config.log_every
             encoder = export_encoder(learner.model, obs_dim, config).cpu()
-            rows.append({"step": step, "loss": running.item() / span, "probe_latent": probe_spearman(encoder, held_out)})
+            loss = running.item() / span
+            rows.append({"step": step, "wall_time": time.perf_counter() - started, "loss": loss, "probe_latent": probe_spearman(encoder, held_out)})
             running.zero_()
             if on_progress is not None:
                 on_progress(step, rows[-1]["loss"])

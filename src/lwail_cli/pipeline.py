@@ -160,17 +160,19 @@ def policy_fn(actor: Actor) -> Callable[[np.ndarray], np.ndarray]:
 
 @dataclass
 class TrainingRun:
-    """What a CLI needs to show an online run: the stage's checkpoint hook and resume state."""
+    """An online run's checkpoint hook and the state it resumes from (None for a fresh run)."""
 
     resume: dict | None
     on_checkpoint: Callable[[dict], None]
 
 
-def prepare_run(store: Store, kind: str, name: str, resume: bool) -> TrainingRun:
-    return TrainingRun(
-        resume=store.load_checkpoint(kind, name) if resume else None,
-        on_checkpoint=lambda state: store.save_checkpoint(kind, name, state),
-    )
+def prepare_run(store: Store, kind: str, name: str, resume: bool, config) -> TrainingRun:
+    """Checkpoints carry the run's config; a resume under another config is refused."""
+    recorded = cfg.to_dict(config)
+    state = store.load_checkpoint(kind, name) if resume else None
+    if state is not None and state.get("config") != recorded:
+        raise LwailError(f"the checkpoint of {kind}/{name} was made with another config; rerun with the same options or without --resume")
+    return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint(kind, name, {**checkpoint, "config": recorded}))
 
 
 def train_expert(
@@ -186,19 +188,14 @@ def train_expert(
     require_positive(config.train.steps, "--steps")
     info = describe_env(env_id)
     name = name or default_name(env_id, "expert")
-    run = prepare_run(store, "policy", name, resume)
-    if run.resume is not None and run.resume.get("config") != cfg.to_dict(config):
-        raise LwailError(f"the checkpoint of policy/{name} was made with another config; rerun without --resume")
+    run = prepare_run(store, "policy", name, resume, config)
     torch.manual_seed(seed)
     agent = TD3(info, config.td3, device)
     buffer = ReplayBuffer(min(config.td3.buffer_size, config.train.steps), info.obs_dim, info.act_dim, device)
 
-    def checkpoint(state: dict) -> None:
-        run.on_checkpoint({**state, "config": cfg.to_dict(config)})
-
     result = train_td3(
         env_id, agent, buffer, config.td3, config.train, seed,
-        reference=reference_for_env(env_id), resume=run.resume, on_progress=on_progress, on_checkpoint=checkpoint,
+        reference=reference_for_env(env_id), resume=run.resume, on_progress=on_progress, on_checkpoint=run.on_checkpoint,
     )
     with store.create("policy", name, env=info, config=cfg.to_dict(config), seed=seed, extra={"trained_on": "true reward"}) as writer:
         save_actor(writer.path("actor.safetensors"), agent)
@@ -508,9 +505,7 @@ def imitate(
             f"not on {embedding.ref} ({embedding.config['type']}): warm up a discriminator on this embedding"
         )
     name = name or default_name(env_id, "lwail")
-    run = prepare_run(store, "policy", name, resume)
-    if run.resume is not None and run.resume.get("config") != cfg.to_dict(config):
-        raise LwailError(f"the checkpoint of policy/{name} was made with another config; rerun without --resume")
+    run = prepare_run(store, "policy", name, resume, config)
     torch.manual_seed(seed)
     encoder = load_encoder(embedding, device)
     expert = _features(encoder, *_expert_pairs(demos, config.expert_episodes), device)
@@ -520,13 +515,10 @@ def imitate(
     agent = TD3(info, config.td3, device)
     buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
 
-    def checkpoint(state: dict) -> None:
-        run.on_checkpoint({**state, "config": cfg.to_dict(config)})
-
     reference = reference_for_env(env_id, demos)
     result = train_td3(
         env_id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model,
-        reference=reference, resume=run.resume, on_progress=on_progress, on_checkpoint=checkpoint,
+        reference=reference, resume=run.resume, on_progress=on_progress, on_checkpoint=run.on_checkpoint,
     )
     record = cfg.to_dict(config)
     with store.create("policy", name, env=info, config=record, seed=seed, parents=[demos, embedding, disc], extra={"trained_on": "LWAIL pseudo-reward"}) as writer:
