@@ -25,6 +25,16 @@ def test_collect_keeps_boundaries_and_loads_with_minari(store):
     assert np.allclose(loaded[0].observations, episodes[0].observations)
 
 
+def test_collect_into_the_default_relative_store(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("LWAIL_STORE", raising=False)
+    from lwail_cli.artifacts import Store
+
+    artifact = collect(Store(), "InvertedPendulum-v5", 50, seed=0, name=None)
+    assert artifact.path == tmp_path / "artifacts" / "dataset" / "invertedpendulum-v5-random" / "v1"
+    assert minari.MinariDataset(artifact.file("minari")).total_steps == 50
+
+
 def test_pairs_never_cross_episode_boundaries():
     env = make_env("Hopper-v5")
     episodes = collect_random(env, 300, seed=0)

@@ -120,7 +120,8 @@ class ArtifactWriter:
 
 class Store:
     def __init__(self, root: Path | str | None = None):
-        self.root = Path(root) if root is not None else default_store()
+        # absolute, because libraries we hand paths to (Minari) mis-join relative ones
+        self.root = (Path(root) if root is not None else default_store()).absolute()
 
     # ---------------------------------------------------------------- reading
     def resolve(self, ref: str, kind: str) -> Artifact:
