@@ -49,8 +49,15 @@ def main(
     store_dir: Optional[Path] = typer.Option(
         None, "--store", envvar="LWAIL_STORE", help="Artifact store directory (default ./artifacts)."
     ),
+    threads: Optional[int] = typer.Option(
+        None, "--threads", envvar="LWAIL_THREADS", help="CPU threads for torch (default: all cores; use 1 per job when running several).", min=1
+    ),
 ) -> None:
     _state["store"] = store_dir
+    if threads is not None:
+        import torch
+
+        torch.set_num_threads(threads)
 
 
 def command(parent: typer.Typer, name: str):

@@ -135,8 +135,8 @@ def _episode_metrics(episodes: list[Episode]) -> dict:
 
 
 # ------------------------------------------------------------------------------ policies
-def save_actor(path: Path, agent: TD3) -> None:
-    save_file({k: v.detach().cpu().contiguous() for k, v in agent.actor.state_dict().items()}, str(path))
+def save_actor(path: Path, weights: dict[str, torch.Tensor]) -> None:
+    save_file({k: v.detach().cpu().contiguous() for k, v in weights.items()}, str(path))
 
 
 def load_policy(artifact: Artifact, device: torch.device | str = "cpu") -> Actor:
@@ -197,10 +197,13 @@ def train_expert(
         env_id, agent, buffer, config.td3, config.train, seed,
         reference=reference_for_env(env_id), resume=run.resume, on_progress=on_progress, on_checkpoint=run.on_checkpoint,
     )
+    # an expert may pick its best evaluation: it trains on the true reward anyway
     with store.create("policy", name, env=info, config=cfg.to_dict(config), seed=seed, extra={"trained_on": "true reward"}) as writer:
-        save_actor(writer.path("actor.safetensors"), agent)
+        save_actor(writer.path("actor.safetensors"), result.best_actor)
+        save_actor(writer.path("final_actor.safetensors"), agent.actor.state_dict())
         _write_history(writer.path("training.csv"), result)
         writer.metrics.update(_final_metrics(result))
+        writer.metrics.update({"actor": f"best evaluation, at step {result.best_step}", "best_return_mean": result.best_return})
     store.clear_checkpoint("policy", name)
     return store.resolve(f"policy/{name}", "policy")
 
@@ -522,7 +525,7 @@ def imitate(
     )
     record = cfg.to_dict(config)
     with store.create("policy", name, env=info, config=record, seed=seed, parents=[demos, embedding, disc], extra={"trained_on": "LWAIL pseudo-reward"}) as writer:
-        save_actor(writer.path("actor.safetensors"), agent)
+        save_actor(writer.path("actor.safetensors"), agent.actor.state_dict())
         save_file({k: v.detach().cpu().contiguous() for k, v in trainer.critic.state_dict().items()}, str(writer.path("critic.safetensors")))
         _write_history(writer.path("learning_curve.csv"), result)
         _plot_run(writer, result, env_id, reference)

@@ -58,6 +58,9 @@ class RunState:
     episode_returns: list[float] = field(default_factory=list)
     history: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
+    best_actor: dict | None = None  # the actor weights of the best evaluation so far
+    best_step: int = 0
+    best_return: float = float("-inf")
 
 
 def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None) -> dict[str, float]:
@@ -136,6 +139,8 @@ def train_td3(
         run = RunState(**resume["run"])
         noise_rng.bit_generator.state = resume["noise_rng"]
         torch.set_rng_state(resume["torch_rng"])
+        if resume.get("cuda_rng") is not None:
+            torch.cuda.set_rng_state_all(resume["cuda_rng"])
         _restore_env_state(env, resume["env"])
         obs = resume["obs"]
     low, high = env.action_space.low, env.action_space.high
@@ -165,6 +170,9 @@ def train_td3(
                 row = {"step": run.step, "wall_time": run.wall_time}
                 row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + 10_000, reference))
                 row.update(reward_model.metrics())
+                if run.best_actor is None or row["return_mean"] > run.best_return:
+                    run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
+                    run.best_step, run.best_return = run.step, row["return_mean"]
                 run.history.append(row)
                 if on_progress is not None:
                     on_progress(run.step, run)
@@ -180,6 +188,7 @@ def train_td3(
                         "run": run.__dict__.copy(),
                         "noise_rng": noise_rng.bit_generator.state,
                         "torch_rng": torch.get_rng_state(),
+                        "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
                         "env": _env_state(env),
                         "obs": obs,
                     }
