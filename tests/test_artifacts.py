@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from lwail_cli.artifacts import SCHEMA_VERSION, Store
+from lwail_cli.artifacts import SCHEMA_VERSION
 from lwail_cli.envs import describe_env
 from lwail_cli.errors import LwailError
 

@@ -6,12 +6,9 @@ from lwail_cli import config as cfg
 from lwail_cli import pipeline
 from lwail_cli.data import Episode
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features
-from lwail_cli.envs import describe_env
-from lwail_cli.icvf import Encoder, ICVFLearner, GoalSampler, pretrain_icvf, probe_spearman
+from lwail_cli.icvf import Encoder, GoalSampler, pretrain_icvf
 from lwail_cli.imitation import AdversarialReward
 from lwail_cli.replay import ReplayBuffer
-from lwail_cli.training import train_td3
-from lwail_cli.td3 import TD3
 
 
 def chain_episodes(seed=0, cells=100, code_dim=16, episodes=60, length=40):

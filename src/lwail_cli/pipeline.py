@@ -37,7 +37,6 @@ from .replay import ReplayBuffer
 from .td3 import TD3, Actor
 from .training import RunState, train_td3
 
-Progress = Callable[[int, dict], None]
 
 
 def require_positive(value: int, what: str) -> None:
@@ -289,8 +288,7 @@ def _write_demos(store, name, info, episodes, returns, config, seed, parents) ->
 
 
 def load_demos(artifact: Artifact) -> tuple[list[Episode], np.ndarray]:
-    episodes, returns = read_npz(artifact.file("demos.npz"))
-    return episodes, returns
+    return read_npz(artifact.file("demos.npz"))
 
 
 # ------------------------------------------------------------------------------ evaluation
