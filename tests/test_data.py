@@ -69,3 +69,24 @@ def test_malformed_npz_files_are_refused(tmp_path, arrays, message):
     np.savez(tmp_path / "bad.npz", **arrays)
     with pytest.raises(LwailError, match=message):
         read_npz(tmp_path / "bad.npz")
+
+
+def test_import_from_the_local_minari_store_keeps_reference_scores(store, tmp_path, monkeypatch):
+    from minari.data_collector import EpisodeBuffer
+
+    from lwail_cli.pipeline import import_demos, reference_for_env
+
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    env = make_env("InvertedPendulum-v5")
+    buffers = []
+    for index, episode in enumerate(collect_random(env, 60, seed=0)):
+        n = episode.length
+        buffers.append(EpisodeBuffer(id=index, observations=episode.observations.astype(np.float64), actions=episode.actions,
+                                     rewards=list(episode.rewards), terminations=[False] * (n - 1) + [episode.terminated],
+                                     truncations=[False] * (n - 1) + [not episode.terminated]))
+    minari.create_dataset_from_buffers("lwail/ip-test-v0", buffers, env="InvertedPendulum-v5", ref_min_score=5.0, ref_max_score=1005.0,
+                                       algorithm_name="random", author="t", author_email="t", code_permalink="t", description="t")
+    demos = import_demos(store, "InvertedPendulum-v5", None, "lwail/ip-test-v0", None)
+    assert demos.metrics["episodes"] == len(buffers) and demos.metrics["ref_max_score"] == 1005.0
+    reference = reference_for_env("InvertedPendulum-v5", demos)
+    assert reference.normalize(505.0) == pytest.approx(50.0) and "Minari refs" in reference.source

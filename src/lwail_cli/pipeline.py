@@ -103,7 +103,7 @@ def _read_external(info: EnvInfo, minari_id: str | None, npz: Path | None) -> tu
         dataset = load_local_minari(minari_id)
         episodes, source = read_minari(dataset), f"minari:{minari_id}"
         for key in ("ref_min_score", "ref_max_score"):
-            value = getattr(dataset.spec, key, None)
+            value = dataset.storage.metadata.get(key)
             if value is not None:
                 extra[key] = float(value)
     else:
