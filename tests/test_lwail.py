@@ -126,7 +126,8 @@ def test_lwail_imitates_inverted_pendulum_from_one_state_only_trajectory(store):
     assert disc.metrics["reward_expert_mean"] > disc.metrics["reward_random_mean"]
     config = cfg.ImitationConfig(
         td3=cfg.TD3Config(random_steps=2000, learning_starts=2000),
-        train=cfg.TrainConfig(steps=14_000, eval_every=7_000, eval_episodes=5, checkpoint_every=14_000),
+        # TD3 on InvertedPendulum sits at returns ~50-100 before it jumps to 1000 (here at ~18k steps)
+        train=cfg.TrainConfig(steps=24_000, eval_every=6_000, eval_episodes=5, checkpoint_every=24_000),
         disc=disc_config,
         expert_episodes=1,
     )
