@@ -118,7 +118,7 @@ def collect_random(env: gym.Env, transitions: int, seed: int, on_step: Callable[
 
 
 # ------------------------------------------------------------------------------ Minari format
-def write_minari(episodes: list[Episode], directory: Path, dataset_id: str, env: gym.Env, description: str) -> None:
+def write_minari(episodes: list[Episode], directory: Path, dataset_id: str, env: gym.Env, source: str, description: str) -> None:
     """Write episodes in Minari's on-disk format so ``minari.MinariDataset(directory)`` loads them."""
     from minari import __version__ as minari_version
     from minari.data_collector import EpisodeBuffer
@@ -135,7 +135,7 @@ def write_minari(episodes: list[Episode], directory: Path, dataset_id: str, env:
         {
             "dataset_id": dataset_id,
             "minari_version": minari_version,
-            "algorithm_name": "uniform-random" if "random" in description else "lwail",
+            "algorithm_name": source,
             "description": description,
             "author": {"lwail"},
         }

@@ -69,7 +69,7 @@ def collect(store: Store, env_id: str, transitions: int, seed: int, name: str | 
         info = env_info(env)
         name = name or default_name(env_id, "random")
         with store.create("dataset", name, env=info, config={"source": "uniform-random", "transitions": transitions}, seed=seed) as writer:
-            write_minari(episodes, writer.path("minari"), f"lwail/{name}-v0", env, "uniform-random policy, state-only use")
+            write_minari(episodes, writer.path("minari"), f"lwail/{name}-v0", env, "uniform-random", "uniform-random policy, state-only use")
             writer.metrics.update(_episode_metrics(episodes))
     finally:
         env.close()
@@ -87,7 +87,7 @@ def import_dataset(store: Store, env_id: str, name: str | None, minari_id: str |
                 n = episode.length
                 episode.actions = episode.actions if episode.actions is not None else np.full((n, info.act_dim), np.nan, np.float32)
                 episode.rewards = episode.rewards if episode.rewards is not None else np.full(n, np.nan, np.float32)
-            write_minari(episodes, writer.path("minari"), f"lwail/{name}-v0", env, f"imported from {source}")
+            write_minari(episodes, writer.path("minari"), f"lwail/{name}-v0", env, source, f"imported from {source}")
             writer.metrics.update(_episode_metrics(episodes) | extra)
     finally:
         env.close()
