@@ -24,12 +24,12 @@ import torch
 
 from benchmarks.plain_td3 import run_plain_td3
 from lwail_cli import config as cfg
-from lwail_cli.data import collect_random
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, transition_features
 from lwail_cli.envs import describe_env, make_env
 from lwail_cli.icvf import Encoder, pretrain_icvf
 from lwail_cli.imitation import AdversarialReward
 from lwail_cli.replay import ReplayBuffer
+from lwail_cli.rollout import rollout
 from lwail_cli.td3 import TD3
 from lwail_cli.training import train_td3
 
@@ -51,14 +51,15 @@ def lwail_loop(steps: int) -> float:
     config = cfg.ImitationConfig(td3=cfg.TD3Config(random_steps=WARMUP, learning_starts=WARMUP))
     torch.manual_seed(0)
     encoder = Encoder(info.obs_dim, cfg.ICVFConfig()).requires_grad_(False)
-    expert_episodes = collect_random(make_env(ENV_ID), 1000, seed=1)
+    expert_episodes = rollout(ENV_ID, None, [1], record=True, transitions=1000).episodes
     with torch.no_grad():
         states = torch.as_tensor(np.concatenate([e.observations[:-1] for e in expert_episodes]))
         successors = torch.as_tensor(np.concatenate([e.observations[1:] for e in expert_episodes]))
         expert = transition_features(encoder, states, successors)
-    trainer = DiscriminatorTrainer(Critic(expert.shape[1], config.disc.hidden), config.disc)
+    critic = cfg.CriticConfig()
+    trainer = DiscriminatorTrainer(Critic(expert.shape[1], critic.hidden), critic)
     total = WARMUP + steps
-    reward = AdversarialReward(encoder, trainer, expert, total + 1, config.disc)
+    reward = AdversarialReward(encoder, trainer, expert, total + 1, update_every=config.update_every, update_steps=config.update_steps)
     agent = TD3(info, config.td3)
     train = cfg.TrainConfig(steps=total + 1, eval_every=10 * total, checkpoint_every=10 * total)
     marks = {}
@@ -100,7 +101,7 @@ def sb3_loop(steps: int) -> float:
 
 def icvf_run(steps: int) -> tuple[float, float, float, float]:
     """(gradient steps/s, seconds to the probe plateau, plateau probe, raw-state probe)."""
-    episodes = collect_random(make_env(ENV_ID), 10_000, seed=0)
+    episodes = rollout(ENV_ID, None, [0], record=True, transitions=10_000).episodes
     config = cfg.ICVFConfig(steps=steps, log_every=max(1, steps // 12))
     result = pretrain_icvf(episodes, describe_env(ENV_ID).obs_dim, config, seed=0)
     log = result.log

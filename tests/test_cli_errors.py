@@ -27,15 +27,15 @@ def seeded(cli, store, tmp_path):
     [
         (("collect", "NoSuchEnv-v0"), "unknown environment 'NoSuchEnv-v0'"),
         (("collect", "CartPole-v1"), "Discrete action space"),
-        (("collect", "Hopper-v5", "--transitions", "0"), "--transitions must be positive"),
+        (("collect", "Hopper-v5", "--transitions", "0"), "collect.transitions must be at least 1"),
         (("collect", "Hopper-v5", "--from-minari", "mujoco/hopper/expert-v0"), "not in the local Minari store"),
-        (("expert", "train", "InvertedPendulum-v5", "--steps", "-5"), "--steps must be positive"),
+        (("expert", "train", "InvertedPendulum-v5", "--steps", "-5"), "train.steps must be at least 1"),
         (("expert", "train", "InvertedPendulum-v5", "--steps", "10", "--resume"), "no checkpoint"),
         (("expert", "record", "missing"), "no policy artifact named 'missing'"),
         (("expert", "record", "ip"), "is a demos artifact, but a policy is needed"),
         (("eval", "ip"), "is a demos artifact, but a policy is needed"),
         (("pretrain-icvf", "ip"), "is a demos artifact, but a dataset is needed"),
-        (("imitate", "InvertedPendulum-v5", "--demos", "ip", "--embedding", "nope", "--disc", "x", "--expert-episodes", "0"), "no embedding artifact named 'nope'"),
+        (("imitate", "InvertedPendulum-v5", "--demos", "ip", "--embedding", "nope", "--disc", "x"), "no embedding artifact named 'nope'"),
         (("show", "policy/none"), "no policy artifact named 'none'"),
     ],
 )
@@ -64,12 +64,12 @@ def test_mismatched_stage_artifacts_are_refused(cli, store, seeded, tmp_path):
     write_states_npz(tmp_path / "data.npz", episodes=3, obs_dim=4)
     assert cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "data.npz", "--name", "ipdata").exit_code == 0
     assert cli("pretrain-icvf", "ipdata", "--kind", "identity", "--name", "ident").exit_code == 0
-    assert cli("pretrain-icvf", "ipdata", "--steps", "2", "--embedding-dim", "8", "--set", "hidden=8", "--name", "icvf").exit_code == 0
-    assert cli("warmup-disc", "ident", "ip", "--set", "warmup_steps=2", "--name", "disc").exit_code == 0
+    assert cli("pretrain-icvf", "ipdata", "--steps", "2", "--embedding-dim", "8", "--set", "icvf.hidden=8", "--name", "icvf").exit_code == 0
+    assert cli("warmup-disc", "ident", "ip", "--set", "steps=2", "--name", "disc").exit_code == 0
     before = committed_versions(store)
     stages = ("--demos", "ip", "--embedding", "ident", "--disc", "disc", "--steps", "50")
-    assert_refused(cli("warmup-disc", "ident", "ip", "--expert-episodes", "0"), store, before, "--expert-episodes must be at least 1")
-    assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--expert-episodes", "0"), store, before, "--expert-episodes must be at least 1")
+    assert_refused(cli("warmup-disc", "ident", "ip", "--expert-episodes", "0"), store, before, "expert_episodes must be at least 1")
+    assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--expert-episodes", "0"), store, before, "expert_episodes must be at least 1")
     assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--expert-episodes", "9"), store, before, "holds only 2 episodes")
     assert_refused(cli("imitate", "Hopper-v5", *stages), store, before, "was made for InvertedPendulum-v5, not Hopper-v5")
     mixed = ("--demos", "ip", "--embedding", "icvf", "--disc", "disc", "--steps", "50")

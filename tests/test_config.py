@@ -1,3 +1,5 @@
+import dataclasses
+
 import pytest
 
 from lwail_cli import config as cfg
@@ -5,23 +7,70 @@ from lwail_cli.errors import LwailError
 
 
 def test_override_nested_fields_with_their_types():
-    config = cfg.with_overrides(cfg.ImitationConfig(), ["td3.actor_lr=1e-4", "disc.hidden=32,32", "disc.tanh=true", "train.steps=5000"])
+    config = cfg.with_overrides(cfg.ImitationConfig(), ["td3.actor_lr=1e-4", "td3.hidden=32,32", "update_every=2000", "train.steps=5000"])
     assert config.td3.actor_lr == 1e-4
-    assert config.disc.hidden == (32, 32)
-    assert config.disc.tanh is True
+    assert config.td3.hidden == (32, 32)
+    assert config.update_every == 2000
     assert config.train.steps == 5000
     assert cfg.ImitationConfig().td3.actor_lr == 3e-4  # defaults untouched
+    warm = cfg.with_overrides(cfg.WarmupConfig(), ["critic.tanh=true", "critic.hidden=16"])
+    assert warm.critic.tanh is True and warm.critic.hidden == (16,)
 
 
 def test_config_round_trips_through_a_manifest_dict():
-    config = cfg.with_overrides(cfg.ImitationConfig(), ["disc.hidden=16", "expert_episodes=3"])
+    config = cfg.with_overrides(cfg.ImitationConfig(), ["td3.hidden=16", "expert_episodes=3"])
     assert cfg.from_dict(cfg.ImitationConfig, cfg.to_dict(config)) == config
 
 
 @pytest.mark.parametrize(
     "assignment, message",
-    [("td3.nope=1", "unknown setting 'nope'"), ("td3=1", "is a section"), ("td3.batch_size=abc", "cannot read"), ("td3.batch_size", "section.field=value")],
+    [
+        ("td3.nope=1", "unknown setting 'nope'"),
+        ("td3=1", "is a section"),
+        ("td3.batch_size=abc", "cannot read"),
+        ("td3.batch_size", "section.field=value"),
+        ("td3.batch_size=2.5", "cannot read"),
+        ("td3.gamma=nan", "td3.gamma must be finite"),
+        ("td3.gamma=1.5", "td3.gamma must be below 1"),
+        ("td3.actor_lr=inf", "td3.actor_lr must be finite"),
+        ("td3.actor_lr=1e8", "td3.actor_lr must be at most 1"),
+        ("td3.hidden=0,64", "td3.hidden must be at least 1"),
+        ("td3.policy_delay=0", "td3.policy_delay must be at least 1"),
+        ("td3.batch_size=5000", "td3.learning_starts \\(4000\\) must be at least td3.batch_size"),
+        ("train.eval_every=0", "train.eval_every must be at least 1"),
+        ("train.checkpoint_every=-3", "train.checkpoint_every must be at least 1"),
+        ("train.steps=1e12", "train.steps must be at most"),
+        ("update_every=0", "imitation.update_every must be at least 1"),
+    ],
 )
-def test_bad_overrides_are_refused(assignment, message):
+def test_bad_overrides_are_refused_with_the_field_named(assignment, message):
     with pytest.raises(LwailError, match=message):
         cfg.with_overrides(cfg.ImitationConfig(), [assignment])
+
+
+def test_icvf_goal_probabilities_must_leave_room_for_random_goals():
+    with pytest.raises(LwailError, match="p_goal_current \\+ icvf.p_goal_trajectory must be at most 1"):
+        cfg.ICVFConfig(p_goal_current=0.6, p_goal_trajectory=0.5)
+    with pytest.raises(LwailError, match="icvf.expectile must be at most 1"):
+        cfg.with_overrides(cfg.EmbedConfig(), ["icvf.expectile=1.5"])
+    with pytest.raises(LwailError, match="embed.kind must be one of icvf, identity"):
+        cfg.EmbedConfig(kind="pca")
+
+
+def _fields(config_type, prefix=""):
+    for f in dataclasses.fields(config_type):
+        hint = config_type.__dataclass_fields__[f.name].default_factory if f.default is dataclasses.MISSING else None
+        if hint is not None and dataclasses.is_dataclass(hint):
+            yield from _fields(hint, f"{prefix}{f.name}.")
+        else:
+            yield config_type, f
+
+
+@pytest.mark.parametrize("stage", sorted(cfg.STAGES))
+def test_every_field_has_a_doc_and_defaults_describe_it(stage):
+    config_type = cfg.STAGES[stage]
+    for owner, f in _fields(config_type):
+        assert f.metadata.get("doc"), f"{owner.__name__}.{f.name} has no one-line doc"
+        assert "\n" not in f.metadata["doc"]
+    described = cfg.describe(config_type())
+    assert all(f"{f.name} = " in described for _, f in _fields(config_type))

@@ -2,14 +2,21 @@ import minari
 import numpy as np
 import pytest
 
-from lwail_cli.data import collect_random, flatten, read_npz, transition_pairs, write_npz
+from lwail_cli.config import CollectConfig
+from lwail_cli.data import flatten, read_npz, transition_pairs, write_npz
 from lwail_cli.envs import make_env
 from lwail_cli.errors import LwailError
-from lwail_cli.pipeline import collect, load_dataset
+from lwail_cli.rollout import rollout
+from lwail_cli.stages.collect import collect
+from lwail_cli.stages.shared import load_dataset
+
+
+def random_episodes(env_id, transitions, seed):
+    return rollout(env_id, None, [seed], record=True, transitions=transitions).episodes
 
 
 def test_collect_keeps_boundaries_and_loads_with_minari(store):
-    artifact = collect(store, "Hopper-v5", 600, seed=1, name=None)
+    artifact = collect(store, env_id="Hopper-v5", config=CollectConfig(transitions=600), seed=1)
     dataset = minari.MinariDataset(artifact.file("minari"))
     assert dataset.total_steps == 600
     episodes = list(dataset.iterate_episodes())
@@ -30,14 +37,13 @@ def test_collect_into_the_default_relative_store(tmp_path, monkeypatch):
     monkeypatch.delenv("LWAIL_STORE", raising=False)
     from lwail_cli.artifacts import Store
 
-    artifact = collect(Store(), "InvertedPendulum-v5", 50, seed=0, name=None)
+    artifact = collect(Store(), env_id="InvertedPendulum-v5", config=CollectConfig(transitions=50), seed=0)
     assert artifact.path == tmp_path / "artifacts" / "dataset" / "invertedpendulum-v5-random" / "v1"
     assert minari.MinariDataset(artifact.file("minari")).total_steps == 50
 
 
 def test_pairs_never_cross_episode_boundaries():
-    env = make_env("Hopper-v5")
-    episodes = collect_random(env, 300, seed=0)
+    episodes = random_episodes("Hopper-v5", 300, seed=0)
     states, successors = transition_pairs(episodes)
     assert len(states) == 300
     flat = flatten(episodes)
@@ -47,8 +53,7 @@ def test_pairs_never_cross_episode_boundaries():
 
 
 def test_npz_round_trip_keeps_episodes_terminations_and_returns(tmp_path):
-    env = make_env("InvertedPendulum-v5")
-    episodes = collect_random(env, 120, seed=0)
+    episodes = random_episodes("InvertedPendulum-v5", 120, seed=0)
     returns = np.array([e.episode_return for e in episodes])
     write_npz(tmp_path / "d.npz", episodes, returns)
     loaded, loaded_returns = read_npz(tmp_path / "d.npz")
@@ -74,19 +79,20 @@ def test_malformed_npz_files_are_refused(tmp_path, arrays, message):
 def test_import_from_the_local_minari_store_keeps_reference_scores(store, tmp_path, monkeypatch):
     from minari.data_collector import EpisodeBuffer
 
-    from lwail_cli.pipeline import import_demos, reference_for_env
+    from lwail_cli.stages.demos import import_demos
+    from lwail_cli.stages.shared import reference_for_env
 
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     env = make_env("InvertedPendulum-v5")
     buffers = []
-    for index, episode in enumerate(collect_random(env, 60, seed=0)):
+    for index, episode in enumerate(random_episodes("InvertedPendulum-v5", 60, seed=0)):
         n = episode.length
         buffers.append(EpisodeBuffer(id=index, observations=episode.observations.astype(np.float64), actions=episode.actions,
                                      rewards=list(episode.rewards), terminations=[False] * (n - 1) + [episode.terminated],
                                      truncations=[False] * (n - 1) + [not episode.terminated]))
     minari.create_dataset_from_buffers("lwail/ip-test-v0", buffers, env="InvertedPendulum-v5", ref_min_score=5.0, ref_max_score=1005.0,
                                        algorithm_name="random", author="t", author_email="t", code_permalink="t", description="t")
-    demos = import_demos(store, "InvertedPendulum-v5", None, "lwail/ip-test-v0", None)
+    demos = import_demos(store, env_id="InvertedPendulum-v5", minari_id="lwail/ip-test-v0")
     assert demos.metrics["episodes"] == len(buffers) and demos.metrics["ref_max_score"] == 1005.0
     reference = reference_for_env("InvertedPendulum-v5", demos)
     assert reference.normalize(505.0) == pytest.approx(50.0) and "Minari refs" in reference.source

@@ -10,7 +10,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.plain_discriminator import plain_critic_step  # noqa: E402
 from benchmarks.plain_icvf import PlainICVF  # noqa: E402
-from lwail_cli.config import DiscriminatorConfig, ICVFConfig  # noqa: E402
+from lwail_cli.config import CriticConfig, ICVFConfig  # noqa: E402
 from lwail_cli.data import Episode  # noqa: E402
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer  # noqa: E402
 from lwail_cli.icvf import GoalSampler, ICVFLearner  # noqa: E402
@@ -40,7 +40,7 @@ def test_fast_icvf_update_equals_textbook_icvf():
 
 
 def test_fast_discriminator_update_equals_textbook_wgan_gp():
-    config = DiscriminatorConfig(hidden=(16, 16))
+    config = CriticConfig(hidden=(16, 16))
     torch.manual_seed(0)
     critic = Critic(6, config.hidden)
     plain = copy.deepcopy(critic)

@@ -3,7 +3,8 @@ import pytest
 import torch
 
 from lwail_cli import config as cfg
-from lwail_cli import pipeline
+from lwail_cli.stages import collect, demos, embed, evaluate, expert, imitate, warmup
+from lwail_cli.stages.shared import load_policy
 from lwail_cli.data import Episode
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features
 from lwail_cli.icvf import Encoder, GoalSampler, pretrain_icvf
@@ -37,10 +38,10 @@ def test_icvf_latent_distance_tracks_time_better_than_raw_states():
 
 def test_goal_sampler_respects_trajectories_and_rewards():
     episodes = chain_episodes(episodes=5, length=10)
-    sampler = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=0.0, p_goal_trajectory=1.0, p_goal_random=0.0), torch.device("cpu"))
+    sampler = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=0.0, p_goal_trajectory=1.0), torch.device("cpu"))
     batch = sampler.sample(512)
     assert torch.all(batch["intention_reward"] == -1) and torch.all(batch["intention_mask"] == 1)  # later states only
-    current = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=1.0, p_goal_trajectory=0.0, p_goal_random=0.0), torch.device("cpu")).sample(64)
+    current = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=1.0, p_goal_trajectory=0.0), torch.device("cpu")).sample(64)
     assert torch.all(current["intention_reward"] == 0) and torch.all(current["intention_mask"] == 0)
     assert torch.equal(current["intention"], current["s"])
 
@@ -57,7 +58,7 @@ def test_gradient_penalty_of_a_linear_critic_is_known():
 
 
 def test_critic_learns_to_separate_expert_from_policy():
-    config = cfg.DiscriminatorConfig(hidden=(16, 16))
+    config = cfg.CriticConfig(hidden=(16, 16))
     torch.manual_seed(0)
     trainer = DiscriminatorTrainer(Critic(2, config.hidden), config)
     expert, policy = torch.randn(256, 2) + 2.0, torch.randn(256, 2) - 2.0
@@ -68,11 +69,11 @@ def test_critic_learns_to_separate_expert_from_policy():
 
 def test_relabelling_makes_every_reward_sigma_of_minus_current_f():
     torch.manual_seed(0)
-    config = cfg.DiscriminatorConfig(hidden=(8,), update_every=50, update_steps=3)
+    config = cfg.CriticConfig(hidden=(8,))
     encoder = Encoder(3, None)
     trainer = DiscriminatorTrainer(Critic(6, config.hidden), config)
     expert = torch.randn(40, 6)
-    model = AdversarialReward(encoder, trainer, expert, capacity=80, config=config)
+    model = AdversarialReward(encoder, trainer, expert, capacity=80, update_every=50, update_steps=3)
     buffer = ReplayBuffer(80, obs_dim=3, act_dim=1)
     rng = np.random.default_rng(0)
     weights_before = trainer.critic.net[0].weight.clone()
@@ -98,18 +99,18 @@ class Killed(Exception):
 def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
     device = torch.device("cpu")
     config = _expert_config(1200, 500)
-    straight = pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="straight", device=device, resume=False)
+    straight = expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="straight", device=device)
 
-    def kill_after_checkpoint(step, run):
+    def kill_after_checkpoint(step, shown):
         if step == 1000:  # before the checkpoint at 1000 is written: steps 501-1000 are lost and redone
             raise Killed
 
     with pytest.raises(Killed):
-        pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="killed", device=device, resume=False, on_progress=kill_after_checkpoint)
+        expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, on_progress=kill_after_checkpoint)
     assert store.load_checkpoint("policy", "killed")["run"]["step"] == 500
-    resumed = pipeline.train_expert(store, "Hopper-v5", config, seed=3, name="killed", device=device, resume=True)
-    a = pipeline.load_policy(straight).state_dict()
-    b = pipeline.load_policy(resumed).state_dict()
+    resumed = expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, resume=True)
+    a = load_policy(straight).state_dict()
+    b = load_policy(resumed).state_dict()
     assert all(torch.equal(a[key], b[key]) for key in a)
     assert straight.metrics["return_mean"] == resumed.metrics["return_mean"]
 
@@ -117,49 +118,49 @@ def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
 @pytest.mark.slow
 def test_lwail_imitates_inverted_pendulum_from_one_state_only_trajectory(store):
     device = torch.device("cpu")
-    demos = pipeline.import_bundled_demos(store, "InvertedPendulum-v5", None)
-    data = pipeline.collect(store, "InvertedPendulum-v5", 3000, seed=0, name=None)
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=3000), seed=0)
     icvf = cfg.ICVFConfig(steps=300, hidden=(64,), embedding_dim=64, log_every=300)
-    embedding = pipeline.pretrain_icvf(store, data.ref, icvf, 0, None, device, identity=False)
-    disc_config = cfg.DiscriminatorConfig(warmup_steps=200, update_every=2000)
-    disc = pipeline.warmup_discriminator(store, embedding.ref, demos.ref, disc_config, 1, 0, None, device)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=device)
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=200), seed=0, device=device)
     assert disc.metrics["reward_expert_mean"] > disc.metrics["reward_random_mean"]
     config = cfg.ImitationConfig(
         td3=cfg.TD3Config(random_steps=2000, learning_starts=2000),
         # TD3 on InvertedPendulum sits at returns ~50-100 before it jumps to 1000 (here at ~18k steps)
         train=cfg.TrainConfig(steps=24_000, eval_every=6_000, eval_episodes=5, checkpoint_every=24_000),
-        disc=disc_config,
-        expert_episodes=1,
+        update_every=2000,
     )
-    policy = pipeline.imitate(store, "InvertedPendulum-v5", demos.ref, embedding.ref, disc.ref, config, 0, None, device, False)
+    policy = imitate.imitate(store, env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref,
+                             config=config, seed=0, device=device)
     assert policy.metrics["normalized_score"] > 80, policy.metrics
     for artifact_file in ("actor.safetensors", "learning_curve.csv", "learning_curve.png", "pseudo_reward_vs_return.png"):
         assert policy.file(artifact_file).is_file()
-    result = pipeline.evaluate(store, policy.ref, 5, 100, True, None)
+    result = evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=5), normalized=True)
     assert result["normalized_score"] > 80 and "bundled-demos" in result["reference"]
 
 
 def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
     device = torch.device("cpu")
-    demos = pipeline.import_bundled_demos(store, "InvertedPendulum-v5", None)
-    data = pipeline.collect(store, "InvertedPendulum-v5", 500, seed=0, name=None)
-    embedding = pipeline.pretrain_icvf(store, data.ref, cfg.ICVFConfig(), 0, None, device, identity=True)
-    disc_config = cfg.DiscriminatorConfig(hidden=(16, 16), warmup_steps=5, update_every=400, update_steps=3)
-    disc = pipeline.warmup_discriminator(store, embedding.ref, demos.ref, disc_config, 1, 0, None, device)
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=500), seed=0)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, device=device)
+    warm = cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(16, 16)), steps=5)
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=warm, seed=0, device=device)
     config = cfg.ImitationConfig(
         td3=cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64),
         train=cfg.TrainConfig(steps=1500, eval_every=1500, eval_episodes=2, checkpoint_every=500),
-        disc=disc_config,
+        update_every=400,
+        update_steps=3,
     )
-    stages = (store, "InvertedPendulum-v5", demos.ref, embedding.ref, disc.ref, config, 0)
-    straight = pipeline.imitate(*stages, "straight", device, False)
+    stages = dict(env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config, seed=0, device=device)
+    straight = imitate.imitate(store, name="straight", **stages)
 
-    def kill(step, run):
+    def kill(step, shown):
         if step == 1000:
             raise Killed
 
     with pytest.raises(Killed):
-        pipeline.imitate(*stages, "killed", device, False, on_progress=kill)
-    resumed = pipeline.imitate(*stages, "killed", device, True)
+        imitate.imitate(store, name="killed", on_progress=kill, **stages)
+    resumed = imitate.imitate(store, name="killed", resume=True, **stages)
     for name in ("actor.safetensors", "critic.safetensors"):
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()

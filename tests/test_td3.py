@@ -12,7 +12,8 @@ from lwail_cli.envs import describe_env  # noqa: E402
 from lwail_cli.replay import ReplayBuffer  # noqa: E402
 from lwail_cli.td3 import TD3  # noqa: E402
 from lwail_cli.training import train_td3  # noqa: E402
-from lwail_cli.evaluation import random_policy_return, rollout_returns  # noqa: E402
+from lwail_cli.evaluation import random_policy_return  # noqa: E402
+from lwail_cli.rollout import rollout  # noqa: E402
 
 
 def random_batch(generator, size=64, obs_dim=11, act_dim=3):
@@ -68,5 +69,5 @@ def test_td3_learns_inverted_pendulum():
     agent = TD3(env, td3)
     run = train_td3("InvertedPendulum-v5", agent, ReplayBuffer(6000, env.obs_dim, env.act_dim), td3, train, seed=0)
     # holding the cart still keeps the pole up ~24 steps; a uniformly random policy ~4
-    still = rollout_returns("InvertedPendulum-v5", lambda obs: np.zeros((len(obs), 1), np.float32), 5, seed=10_000).mean()
+    still = rollout("InvertedPendulum-v5", lambda obs: np.zeros((len(obs), 1), np.float32), range(10_000, 10_005)).returns.mean()
     assert run.history[-1]["return_mean"] > 1.5 * still > 6 * random_policy_return("InvertedPendulum-v5"), run.history

@@ -151,6 +151,16 @@ class Store:
             raise LwailError(f"{ref!r} is a {artifact.kind} artifact, but a {kind} is needed here")
         return artifact
 
+    def resolve_any(self, ref: str) -> Artifact:
+        """``kind/name[@vN]`` or an artifact path, whatever its kind."""
+        path = Path(ref)
+        if (path / MANIFEST).is_file():
+            return self._load(path)
+        kind = ref.split("/")[0] if "/" in ref else None
+        if kind not in KINDS:
+            raise LwailError(f"give kind/name (e.g. policy/hopper-v5-expert) or an artifact path, not {ref!r}")
+        return self.resolve(ref, kind)
+
     def _load(self, path: Path) -> Artifact:
         try:
             manifest = json.loads((path / MANIFEST).read_text())
@@ -288,7 +298,7 @@ class Store:
         if not path.is_file():
             raise LwailError(f"--resume: no checkpoint for {kind}/{name} in store {self.root}")
         try:
-            return torch.load(path, map_location="cpu", weights_only=False)
+            return torch.load(path, map_location="cpu", weights_only=True)  # tensors and plain data only: no code runs
         except (RuntimeError, EOFError, OSError, pickle.UnpicklingError, ValueError) as exc:
             raise LwailError(f"--resume: the checkpoint {path} is corrupt ({type(exc).__name__}); rerun without --resume") from None
 

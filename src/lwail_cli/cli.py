@@ -12,10 +12,19 @@ from typing import Optional
 import typer
 from tqdm import tqdm
 
+from . import __version__
 from . import config as cfg
-from . import pipeline
 from .artifacts import Store
 from .errors import LwailError
+from .stages import collect as collect_stage
+from .stages import demos as demos_stage
+from .stages import embed as embed_stage
+from .stages import evaluate as evaluate_stage
+from .stages import expert as expert_stage
+from .stages import imitate as imitate_stage
+from .stages import quickstart as quickstart_stage
+from .stages import warmup as warmup_stage
+from .stages.shared import resolve_device
 
 app = typer.Typer(
     help="LWAIL: imitate an expert from state-only demonstrations. Stages read and write versioned artifacts.",
@@ -30,28 +39,34 @@ app.add_typer(demos_app, name="demos")
 
 _state: dict = {"store": None}
 
-SEED = typer.Option(0, "--seed", help="Random seed.")
+SEED = typer.Option(0, "--seed", help="Random seed.", min=0)
 NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
 DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
-SET = typer.Option([], "--set", help="Override any hyper-parameter: section.field=value (see `lwail defaults`). Repeatable.")
+SET = typer.Option([], "--set", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable.")
 RESUME = typer.Option(False, "--resume", help="Continue the killed run of the same name from its last checkpoint.")
-STEPS = typer.Option(1_000_000, "--steps", help="Environment steps (one TD3 update each).")
-EVAL_EVERY = typer.Option(10_000, "--eval-every", help="Evaluate (10 deterministic episodes) every this many env steps.")
-CHECKPOINT_EVERY = typer.Option(50_000, "--checkpoint-every", help="Checkpoint every this many env steps.")
+STEPS = typer.Option(cfg.TrainConfig.steps, "--steps", help="Environment steps (one TD3 update each).")
+EVAL_EVERY = typer.Option(cfg.TrainConfig.eval_every, "--eval-every", help="Evaluate the deterministic actor every this many env steps.")
+CHECKPOINT_EVERY = typer.Option(cfg.TrainConfig.checkpoint_every, "--checkpoint-every", help="Checkpoint every this many env steps.")
+EXPERT_EPISODES = typer.Option(1, "--expert-episodes", help="Expert trajectories to use.")
 
 
 def store() -> Store:
     return Store(_state["store"])
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"lwail {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
 def main(
-    store_dir: Optional[Path] = typer.Option(
-        None, "--store", envvar="LWAIL_STORE", help="Artifact store directory (default ./artifacts)."
-    ),
+    store_dir: Optional[Path] = typer.Option(None, "--store", envvar="LWAIL_STORE", help="Artifact store directory (default ./artifacts)."),
     threads: Optional[int] = typer.Option(
         None, "--threads", envvar="LWAIL_THREADS", help="CPU threads for torch (default: all cores; use 1 per job when running several).", min=1
     ),
+    version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True, help="Print the version and exit."),
 ) -> None:
     _state["store"] = store_dir
     if threads is not None:
@@ -80,45 +95,23 @@ def command(parent: typer.Typer, name: str):
     return register
 
 
-class ProgressBar:
-    """A tqdm bar that appears on the first progress report, so input errors print alone."""
-
-    def __init__(self, total: int, description: str):
-        self.total, self.description, self.bar = total, description, None
-
-    def to(self, done: int, **postfix) -> None:
-        if self.bar is None:
-            self.bar = tqdm(total=self.total, desc=self.description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5)
-        self.bar.update(done - self.bar.n)
-        if postfix:
-            self.bar.set_postfix(postfix, refresh=False)
-
-
 @contextmanager
-def progress_bar(total: int, description: str):
-    bar = ProgressBar(total, description)
+def progress_bar(description: str, total: int):
+    """A tqdm bar that appears on the first report (so input errors print alone); yields the stages' callback."""
+    bars: list[tqdm] = []
+
+    def report(done: int, shown: dict) -> None:
+        if not bars:
+            bars.append(tqdm(total=total, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
+        bars[0].update(done - bars[0].n)
+        if shown:
+            bars[0].set_postfix({key: _fmt(value) for key, value in shown.items()}, refresh=False)
+
     try:
-        yield bar
+        yield report
     finally:
-        if bar.bar is not None:
-            bar.bar.close()
-
-
-def run_progress(bar: ProgressBar):
-    """A training-loop callback that moves the bar and shows the latest return and score."""
-
-    def update(step: int, run) -> None:
-        shown = {}
-        if run.episode_returns:
-            shown["ep_return"] = f"{run.episode_returns[-1]:.1f}"
-        if run.history:
-            last = run.history[-1]
-            shown["eval"] = f"{last['return_mean']:.1f}"
-            if "normalized_score" in last:
-                shown["score"] = f"{last['normalized_score']:.1f}"
-        bar.to(step, **shown)
-
-    return update
+        if bars:
+            bars[0].close()
 
 
 def say_written(artifact) -> None:
@@ -131,11 +124,15 @@ def _fmt(value) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
+def _train_config(steps: int, eval_every: int, checkpoint_every: int) -> cfg.TrainConfig:
+    return cfg.TrainConfig(steps=steps, eval_every=eval_every, checkpoint_every=checkpoint_every)
+
+
 # ------------------------------------------------------------------------------ data
 @command(app, "collect")
 def collect(
     env_id: str = typer.Argument(..., help="Gymnasium environment id, e.g. Hopper-v5."),
-    transitions: int = typer.Option(10_000, "--transitions", help="Random-policy transitions to collect."),
+    transitions: int = typer.Option(cfg.CollectConfig.transitions, "--transitions", help="Random-policy transitions to collect."),
     from_minari: Optional[str] = typer.Option(None, "--from-minari", help="Import a dataset from the local Minari store (never downloads)."),
     from_file: Optional[Path] = typer.Option(None, "--from-file", help="Import a .npz with 'observations' and 'episode_ends'."),
     seed: int = SEED,
@@ -143,11 +140,11 @@ def collect(
 ) -> None:
     """Collect state-only data from a uniformly random policy (or import it) as a Minari dataset."""
     if from_minari or from_file:
-        artifact = pipeline.import_dataset(store(), env_id, name, from_minari, from_file)
+        artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
     else:
-        pipeline.require_positive(transitions, "--transitions")
-        with progress_bar(transitions, f"collect {env_id}") as bar:
-            artifact = pipeline.collect(store(), env_id, transitions, seed, name, on_step=lambda n: bar.to(n) if n % 500 == 0 or n == transitions else None)
+        config = cfg.CollectConfig(transitions=transitions)
+        with progress_bar(f"collect {env_id}", config.transitions) as report:
+            artifact = collect_stage.collect(store(), env_id=env_id, config=config, seed=seed, name=name, on_progress=report)
     say_written(artifact)
 
 
@@ -165,23 +162,24 @@ def expert_train(
     overrides: list[str] = SET,
 ) -> None:
     """Train a TD3 expert on the environment's true reward (the paper's TD3 baseline)."""
-    config = cfg.ExpertConfig(train=cfg.TrainConfig(steps=steps, eval_every=eval_every, checkpoint_every=checkpoint_every))
-    config = cfg.with_overrides(config, overrides)
-    pipeline.require_positive(config.train.steps, "--steps")
-    with progress_bar(config.train.steps, f"expert {env_id}") as bar:
-        artifact = pipeline.train_expert(store(), env_id, config, seed, name, pipeline.resolve_device(device), resume, run_progress(bar))
+    config = cfg.with_overrides(cfg.ExpertConfig(train=_train_config(steps, eval_every, checkpoint_every)), overrides)
+    with progress_bar(f"expert {env_id}", config.train.steps) as report:
+        artifact = expert_stage.train_expert(
+            store(), env_id=env_id, config=config, seed=seed, name=name, device=resolve_device(device), resume=resume, on_progress=report
+        )
     say_written(artifact)
 
 
 @command(expert_app, "record")
 def expert_record(
     policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    episodes: int = typer.Option(10, "--episodes", help="Episodes to record."),
+    episodes: int = typer.Option(cfg.RecordConfig.episodes, "--episodes", help="Episodes to record."),
     seed: int = SEED,
     name: Optional[str] = NAME,
 ) -> None:
     """Roll a policy out and record state-only demonstrations with each episode's return."""
-    say_written(pipeline.record_demos(store(), policy, episodes, seed, name))
+    config = cfg.RecordConfig(episodes=episodes)
+    say_written(demos_stage.record_demos(store(), policy_ref=policy, config=config, seed=seed, name=name))
 
 
 @command(demos_app, "import")
@@ -194,25 +192,117 @@ def demos_import(
 ) -> None:
     """Import state-only demonstrations from a local Minari dataset, a .npz, or the bundled set."""
     if bundled:
-        say_written(pipeline.import_bundled_demos(store(), env_id, name))
+        say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
     else:
-        say_written(pipeline.import_demos(store(), env_id, name, from_minari, from_file))
+        say_written(demos_stage.import_demos(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file))
+
+
+# ------------------------------------------------------------------------------ LWAIL stages
+@command(app, "pretrain-icvf")
+def pretrain_icvf(
+    data: str = typer.Argument(..., help="Dataset artifact (from `lwail collect`)."),
+    steps: int = typer.Option(cfg.ICVFConfig.steps, "--steps", help="Gradient steps."),
+    batch_size: int = typer.Option(cfg.ICVFConfig.batch_size, "--batch-size", help="Tuples per gradient step."),
+    embedding_dim: int = typer.Option(cfg.ICVFConfig.embedding_dim, "--embedding-dim", help="Dimension of φ(s)."),
+    kind: str = typer.Option(cfg.EmbedConfig.kind, "--kind", help="icvf, or identity for the paper's no-embedding ablation."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    overrides: list[str] = SET,
+) -> None:
+    """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
+    icvf = cfg.ICVFConfig(steps=steps, batch_size=batch_size, embedding_dim=embedding_dim)
+    config = cfg.with_overrides(cfg.EmbedConfig(kind=kind, icvf=icvf), overrides)
+    total = config.icvf.steps if config.kind == "icvf" else 0
+    with progress_bar("pretrain-icvf", total) as report:
+        artifact = embed_stage.embed(store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), on_progress=report)
+    say_written(artifact)
+
+
+@command(app, "warmup-disc")
+def warmup_disc(
+    embedding: str = typer.Argument(..., help="Embedding artifact (from `lwail pretrain-icvf`)."),
+    demos: str = typer.Argument(..., help="Demos artifact."),
+    data: Optional[str] = typer.Option(None, "--data", help="Random-policy dataset (default: the one the embedding was trained on)."),
+    expert_episodes: int = EXPERT_EPISODES,
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    overrides: list[str] = SET,
+) -> None:
+    """Warm the discriminator f up: expert pairs vs the random policy's true (s, s') pairs."""
+    config = cfg.with_overrides(cfg.WarmupConfig(expert_episodes=expert_episodes), overrides)
+    with progress_bar("warmup-disc", config.steps) as report:
+        artifact = warmup_stage.warmup(
+            store(), embedding_ref=embedding, demos_ref=demos, config=config, seed=seed, name=name,
+            device=resolve_device(device), data_ref=data, on_progress=report,
+        )
+    say_written(artifact)
+
+
+@command(app, "imitate")
+def imitate(
+    env_id: str = typer.Argument(..., help="Environment to imitate in."),
+    demos: str = typer.Option(..., "--demos", help="Demos artifact."),
+    embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
+    disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact (f keeps the loss it was warmed up with)."),
+    steps: int = STEPS,
+    expert_episodes: int = EXPERT_EPISODES,
+    eval_every: int = EVAL_EVERY,
+    checkpoint_every: int = CHECKPOINT_EVERY,
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    resume: bool = RESUME,
+    overrides: list[str] = SET,
+) -> None:
+    """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
+    config = cfg.ImitationConfig(train=_train_config(steps, eval_every, checkpoint_every), expert_episodes=expert_episodes)
+    config = cfg.with_overrides(config, overrides)
+    with progress_bar(f"imitate {env_id}", config.train.steps) as report:
+        artifact = imitate_stage.imitate(
+            store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,
+            name=name, device=resolve_device(device), resume=resume, on_progress=report,
+        )
+    say_written(artifact)
 
 
 # ------------------------------------------------------------------------------ evaluation
 @command(app, "eval")
 def evaluate(
     policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    episodes: int = typer.Option(10, "--episodes", help="Deterministic evaluation episodes."),
+    episodes: int = typer.Option(cfg.EvalConfig.episodes, "--episodes", help="Deterministic evaluation episodes."),
     normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
     demos: Optional[str] = typer.Option(None, "--demos", help="Demos whose return is the expert reference (default: the policy's own)."),
-    seed: int = typer.Option(100, "--seed", help="Seed of the first evaluation episode."),
+    seed: int = typer.Option(cfg.EvalConfig.seed, "--seed", help="Seed of the first evaluation episode.", min=0),
 ) -> None:
     """Roll a policy out on the true reward; print mean ± std return (and the normalized score)."""
-    result = pipeline.evaluate(store(), policy, episodes, seed, normalized, demos)
-    typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {episodes} episodes")
-    if normalized:
+    config = cfg.EvalConfig(episodes=episodes, seed=seed)
+    result = evaluate_stage.evaluate(store(), policy_ref=policy, config=config, normalized=normalized, demos_ref=demos)
+    _say_evaluation(result)
+
+
+def _say_evaluation(result: dict) -> None:
+    typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes")
+    if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
+
+
+@command(app, "quickstart")
+def quickstart(
+    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", help="A task with bundled demos."),
+    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    seed: int = SEED,
+    device: str = DEVICE,
+) -> None:
+    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
+    plan = quickstart_stage.quickstart_plan(env_id, steps)
+    s = store()
+    typer.echo(f"quickstart on {env_id} into store {s.root}")
+    result = quickstart_stage.quickstart(
+        s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
+    )
+    _say_evaluation(result)
 
 
 # ------------------------------------------------------------------------------ the store
@@ -237,128 +327,14 @@ def list_artifacts() -> None:
 @command(app, "show")
 def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.")) -> None:
     """Print one artifact's manifest."""
-    kind = ref.split("/")[0] if "/" in ref and not Path(ref).exists() else None
-    if kind is None:
-        manifest = Path(ref) / "manifest.json"
-        if not manifest.is_file():
-            raise LwailError(f"give kind/name (e.g. policy/hopper-v5-expert) or an artifact path, not {ref!r}")
-        kind = json.loads(manifest.read_text())["kind"]
-    typer.echo(json.dumps(store().resolve(ref, kind).manifest, indent=2))
+    typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
 
 
 @command(app, "defaults")
-def defaults(stage: str = typer.Argument(..., help="expert, icvf, imitate")) -> None:
-    """Print a stage's default hyper-parameters (the names --set accepts)."""
-    configs = {"expert": cfg.ExpertConfig(), "icvf": cfg.ICVFConfig(), "imitate": cfg.ImitationConfig()}
-    if stage not in configs:
-        raise LwailError(f"unknown stage {stage!r}; one of {', '.join(configs)}")
-    typer.echo(cfg.describe(configs[stage]))
-
-
-# ------------------------------------------------------------------------------ LWAIL stages
-@command(app, "pretrain-icvf")
-def pretrain_icvf(
-    data: str = typer.Argument(..., help="Dataset artifact (from `lwail collect`)."),
-    steps: int = typer.Option(cfg.ICVFConfig.steps, "--steps", help="Gradient steps."),
-    batch_size: int = typer.Option(cfg.ICVFConfig.batch_size, "--batch-size"),
-    embedding_dim: int = typer.Option(cfg.ICVFConfig.embedding_dim, "--embedding-dim"),
-    kind: str = typer.Option("icvf", "--kind", help="icvf, or identity for the paper's no-embedding ablation."),
-    seed: int = SEED,
-    name: Optional[str] = NAME,
-    device: str = DEVICE,
-    overrides: list[str] = SET,
-) -> None:
-    """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
-    if kind not in ("icvf", "identity"):
-        raise LwailError(f"--kind must be icvf or identity, not {kind!r}")
-    config = cfg.with_overrides(cfg.ICVFConfig(steps=steps, batch_size=batch_size, embedding_dim=embedding_dim), overrides)
-    if kind == "identity":
-        artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=True)
-    else:
-        pipeline.require_positive(config.steps, "--steps")
-        pipeline.require_positive(config.batch_size, "--batch-size")
-        with progress_bar(config.steps, "pretrain-icvf") as bar:
-
-            artifact = pipeline.pretrain_icvf(store(), data, config, seed, name, pipeline.resolve_device(device), identity=False, on_progress=lambda n, loss: bar.to(n, loss=f"{loss:.4f}"))
-    say_written(artifact)
-
-
-@command(app, "warmup-disc")
-def warmup_disc(
-    embedding: str = typer.Argument(..., help="Embedding artifact (from `lwail pretrain-icvf`)."),
-    demos: str = typer.Argument(..., help="Demos artifact."),
-    data: Optional[str] = typer.Option(None, "--data", help="Random-policy dataset (default: the one the embedding was trained on)."),
-    expert_episodes: int = typer.Option(1, "--expert-episodes", help="Expert trajectories to use."),
-    seed: int = SEED,
-    name: Optional[str] = NAME,
-    device: str = DEVICE,
-    overrides: list[str] = SET,
-) -> None:
-    """Warm the discriminator f up: expert pairs vs the random policy's true (s, s') pairs."""
-    config = cfg.with_overrides(cfg.DiscriminatorConfig(), overrides)
-    pipeline.require_positive(config.warmup_steps, "warmup_steps")
-    with progress_bar(config.warmup_steps, "warmup-disc") as bar:
-        artifact = pipeline.warmup_discriminator(
-            store(), embedding, demos, config, expert_episodes, seed, name, pipeline.resolve_device(device), data,
-            lambda n, wasserstein: bar.to(n, wasserstein=f"{wasserstein:.3f}"),
-        )
-    say_written(artifact)
-
-
-@command(app, "imitate")
-def imitate(
-    env_id: str = typer.Argument(..., help="Environment to imitate in."),
-    demos: str = typer.Option(..., "--demos", help="Demos artifact."),
-    embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
-    disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact."),
-    steps: int = STEPS,
-    expert_episodes: int = typer.Option(1, "--expert-episodes", help="Expert trajectories to imitate."),
-    eval_every: int = EVAL_EVERY,
-    checkpoint_every: int = CHECKPOINT_EVERY,
-    seed: int = SEED,
-    name: Optional[str] = NAME,
-    device: str = DEVICE,
-    resume: bool = RESUME,
-    overrides: list[str] = SET,
-) -> None:
-    """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
-    config = cfg.ImitationConfig(
-        train=cfg.TrainConfig(steps=steps, eval_every=eval_every, checkpoint_every=checkpoint_every),
-        expert_episodes=expert_episodes,
-    )
-    config = cfg.with_overrides(config, overrides)
-    pipeline.require_positive(config.train.steps, "--steps")
-    with progress_bar(config.train.steps, f"imitate {env_id}") as bar:
-        artifact = pipeline.imitate(store(), env_id, demos, embedding, disc, config, seed, name, pipeline.resolve_device(device), resume, run_progress(bar))
-    say_written(artifact)
-
-
-@command(app, "quickstart")
-def quickstart(
-    env_id: str = typer.Option("InvertedPendulum-v5", "--env", help="A task with bundled demos."),
-    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
-    seed: int = SEED,
-    device: str = DEVICE,
-) -> None:
-    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
-    plan = pipeline.quickstart_plan(env_id, steps)
-    resolved = pipeline.resolve_device(device)
-    s = store()
-    typer.echo(f"quickstart on {env_id} into store {s.root}")
-    demos = pipeline.import_bundled_demos(s, env_id, None)
-    say_written(demos)
-    with progress_bar(plan.collect_transitions, "1/4 collect") as bar:
-        data = pipeline.collect(s, env_id, plan.collect_transitions, seed, None, on_step=lambda n: bar.to(n) if n % 500 == 0 else None)
-    say_written(data)
-    with progress_bar(plan.icvf.steps, "2/4 pretrain-icvf") as bar:
-        embedding = pipeline.pretrain_icvf(s, data.ref, plan.icvf, seed, None, resolved, identity=False, on_progress=lambda n, loss: bar.to(n))
-    say_written(embedding)
-    with progress_bar(plan.imitation.disc.warmup_steps, "3/4 warmup-disc") as bar:
-        disc = pipeline.warmup_discriminator(s, embedding.ref, demos.ref, plan.imitation.disc, 1, seed, None, resolved, None, lambda n, w: bar.to(n))
-    say_written(disc)
-    with progress_bar(plan.imitation.train.steps, "4/4 imitate") as bar:
-        policy = pipeline.imitate(s, env_id, demos.ref, embedding.ref, disc.ref, plan.imitation, seed, None, resolved, False, run_progress(bar))
-    say_written(policy)
-    result = pipeline.evaluate(s, policy.ref, 10, 100, True, None)
-    typer.echo(f"{policy.ref}: return {result['return_mean']:.1f} ± {result['return_std']:.1f}; "
-               f"normalized score {result['normalized_score']:.1f} ({result['reference']})")
+def defaults(stage: Optional[str] = typer.Argument(None, help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
+    """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
+    if stage is not None and stage not in cfg.STAGES:
+        raise LwailError(f"unknown stage {stage!r}; one of {', '.join(cfg.STAGES)}")
+    for name, config_type in cfg.STAGES.items():
+        if stage in (None, name):
+            typer.echo(f"# {name}\n{cfg.describe(config_type())}")

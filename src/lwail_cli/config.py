@@ -1,94 +1,215 @@
-"""Every hyper-parameter's one home: typed configs holding the paper's defaults (SPEC.md).
+"""Every hyper-parameter's one home: a typed config per stage, validated when it is built.
 
-A config is recorded whole in the manifest of the artifact it produced, and any field can be
-overridden from the CLI with ``--set section.field=value`` (e.g. ``--set td3.actor_lr=1e-4``).
+Each field is declared with ``setting(default, doc, ...)``: the doc is the field's one-line comment (and
+what ``lwail defaults STAGE`` prints beside it), the bounds are checked in ``__post_init__``, so a config
+holding a bad value cannot exist and nothing is written before the check. A config is recorded whole in the
+manifest of the artifact it produced; any field can be overridden from the CLI with
+``--set section.field=value`` (e.g. ``--set td3.actor_lr=1e-4``). Defaults and their sources:
+``docs/algorithm.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import typing
 from dataclasses import dataclass, field
 
 from .errors import LwailError
 
 
+def setting(default, doc: str, *, low=None, high=None, below=None, choices=None):
+    """A config field: its default, a one-line doc, and the bounds checked on every construction
+    (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values)."""
+    return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices})
+
+
+def section(factory, doc: str):
+    """A nested config (e.g. the TD3 settings inside the imitation config)."""
+    return field(default_factory=factory, metadata={"doc": doc})
+
+
+class Validated:
+    """Checks every field's type and bounds after construction (and after each ``--set``)."""
+
+    def __post_init__(self) -> None:
+        hints = typing.get_type_hints(type(self))
+        for f in dataclasses.fields(self):
+            _check(type(self).__name__, f, hints[f.name], vars(self)[f.name])
+        self.check()
+
+    def check(self) -> None:
+        """Constraints between fields; a config overrides this (reading fields through ``vars``)."""
+
+
+def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
+    name = f"{owner.removesuffix('Config').lower()}.{f.name}"
+    if dataclasses.is_dataclass(hint):
+        if not isinstance(value, hint):
+            raise LwailError(f"{name} must be a {hint.__name__} section")
+        return
+    values = value if typing.get_origin(hint) is tuple else (value,)
+    kind = typing.get_args(hint)[0] if typing.get_origin(hint) is tuple else hint
+    if typing.get_origin(hint) is tuple and not isinstance(value, tuple):
+        raise LwailError(f"{name} must be a tuple of {kind.__name__}s, got {value!r}")
+    meta = f.metadata
+    for item in values:
+        if kind is bool and not isinstance(item, bool) or kind is int and (isinstance(item, bool) or not isinstance(item, int)):
+            raise LwailError(f"{name} must be {kind.__name__}, got {item!r}")
+        if kind is float:
+            if isinstance(item, bool) or not isinstance(item, (int, float)):
+                raise LwailError(f"{name} must be a number, got {item!r}")
+            if not math.isfinite(item):
+                raise LwailError(f"{name} must be finite, got {item!r}")
+        if kind is str and not isinstance(item, str):
+            raise LwailError(f"{name} must be text, got {item!r}")
+        if meta.get("choices") is not None and item not in meta["choices"]:
+            raise LwailError(f"{name} must be one of {', '.join(map(str, meta['choices']))}, got {item!r}")
+        if meta.get("low") is not None and item < meta["low"]:
+            raise LwailError(f"{name} must be at least {meta['low']}, got {item!r}")
+        if meta.get("high") is not None and item > meta["high"]:
+            raise LwailError(f"{name} must be at most {meta['high']}, got {item!r}")
+        if meta.get("below") is not None and item >= meta["below"]:
+            raise LwailError(f"{name} must be below {meta['below']}, got {item!r}")
+
+
+MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
+MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
+
+
+# ------------------------------------------------------------------------------ shared sections
 @dataclass(frozen=True)
-class TD3Config:
-    hidden: tuple[int, ...] = (256, 256)
-    actor_lr: float = 3e-4
-    critic_lr: float = 1e-3
-    batch_size: int = 256
-    gamma: float = 0.99
-    tau: float = 0.005
-    policy_delay: int = 2
-    target_noise: float = 0.2  # times the action scale
-    target_noise_clip: float = 0.5  # times the action scale
-    exploration_noise: float = 0.1  # times the action scale
-    buffer_size: int = 1_000_000
-    random_steps: int = 10_000  # uniformly random actions before the actor acts
-    learning_starts: int = 4_000  # env steps before the first gradient update
+class TD3Config(Validated):
+    hidden: tuple[int, ...] = setting((256, 256), "hidden widths of the actor and of each twin critic", low=1, high=4096)
+    actor_lr: float = setting(3e-4, "actor Adam learning rate", low=1e-7, high=1.0)
+    critic_lr: float = setting(1e-3, "twin-critic Adam learning rate", low=1e-7, high=1.0)
+    batch_size: int = setting(256, "transitions per TD3 update", low=1, high=65_536)
+    gamma: float = setting(0.99, "discount factor", low=0.0, below=1.0)
+    tau: float = setting(0.005, "Polyak rate of the target networks", low=0.0, high=1.0)
+    policy_delay: int = setting(2, "critic updates per actor (and target) update", low=1, high=1000)
+    target_noise: float = setting(0.2, "target-policy smoothing noise, times the action scale", low=0.0, high=10.0)
+    target_noise_clip: float = setting(0.5, "clip of that noise, times the action scale", low=0.0, high=10.0)
+    exploration_noise: float = setting(0.1, "Gaussian exploration noise, times the action scale", low=0.0, high=10.0)
+    buffer_size: int = setting(1_000_000, "replay capacity (capped at the run's steps)", low=1, high=MAX_BUFFER)
+    random_steps: int = setting(10_000, "uniformly random actions before the actor acts", low=0, high=MAX_STEPS)
+    learning_starts: int = setting(4_000, "env steps before the first gradient update", low=1, high=MAX_STEPS)
+
+    def check(self) -> None:
+        starts, batch = vars(self)["learning_starts"], vars(self)["batch_size"]
+        if starts < batch:
+            raise LwailError(f"td3.learning_starts ({starts}) must be at least td3.batch_size ({batch})")
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class TrainConfig(Validated):
     """The schedule of an online TD3 run (an expert on the true reward, or LWAIL)."""
 
-    steps: int = 1_000_000
-    eval_every: int = 10_000
-    eval_episodes: int = 10
-    checkpoint_every: int = 50_000
+    steps: int = setting(1_000_000, "environment steps, one TD3 update each", low=1, high=MAX_STEPS)
+    eval_every: int = setting(10_000, "evaluate the deterministic actor every this many env steps", low=1, high=MAX_STEPS)
+    eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
+    eval_seed_offset: int = setting(10_000, "evaluation episodes use seeds run seed + this + 0..n-1", low=0, high=2**31)
+    checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
 
 
 @dataclass(frozen=True)
-class ExpertConfig:
-    td3: TD3Config = field(default_factory=TD3Config)
-    train: TrainConfig = field(default_factory=TrainConfig)
+class CriticConfig(Validated):
+    """The discriminator f and its loss; fixed at warm-up, inherited by `imitate`."""
+
+    hidden: tuple[int, ...] = setting((64, 64), "hidden widths of f (ReLU)", low=1, high=4096)
+    lr: float = setting(1e-3, "Adam learning rate of f (warm-up and online updates)", low=1e-7, high=1.0)
+    gp_weight: float = setting(10.0, "weight λ of the WGAN-GP gradient penalty", low=0.0, high=1e4)
+    tanh: bool = setting(False, "loss on tanh f, as the authors' code (the reward stays σ(−f))")
+
+
+# ------------------------------------------------------------------------------ one config per stage
+@dataclass(frozen=True)
+class CollectConfig(Validated):
+    transitions: int = setting(10_000, "uniformly random policy transitions to collect", low=1, high=MAX_BUFFER)
 
 
 @dataclass(frozen=True)
-class ICVFConfig:
-    steps: int = 10_000  # the authors train 200k; the probe plateaus far earlier (see README)
-    batch_size: int = 256
-    hidden: tuple[int, ...] = (256,)  # hidden widths of phi/psi before the embedding layer
-    embedding_dim: int = 256
-    ensemble: int = 2
-    lr: float = 3e-4
-    gamma: float = 0.99
-    tau: float = 0.005
-    expectile: float = 0.9
-    p_goal_current: float = 0.2
-    p_goal_trajectory: float = 0.5
-    p_goal_random: float = 0.3
-    p_outcome_is_goal: float = 0.5
-    holdout_fraction: float = 0.1  # episodes kept out of training for the embedding-quality probe
-    log_every: int = 500
+class RecordConfig(Validated):
+    episodes: int = setting(10, "episodes to record from the policy", low=1, high=10_000)
 
 
 @dataclass(frozen=True)
-class DiscriminatorConfig:
-    hidden: tuple[int, ...] = (64, 64)
-    lr: float = 1e-3
-    gp_weight: float = 10.0
-    tanh: bool = False  # the authors wrap f in tanh inside the loss; the paper does not
-    warmup_steps: int = 2_500
-    warmup_transitions: int = 4_000
-    update_every: int = 4_000
-    update_steps: int = 40
-    batch_size: int = 4_000
+class ExpertConfig(Validated):
+    td3: TD3Config = section(TD3Config, "TD3 settings")
+    train: TrainConfig = section(TrainConfig, "run schedule")
 
 
 @dataclass(frozen=True)
-class ImitationConfig:
-    td3: TD3Config = field(default_factory=TD3Config)
-    train: TrainConfig = field(default_factory=TrainConfig)
-    disc: DiscriminatorConfig = field(default_factory=DiscriminatorConfig)
-    expert_episodes: int = 1
+class ICVFConfig(Validated):
+    steps: int = setting(10_000, "gradient steps (the authors train 200k; see docs/algorithm.md)", low=1, high=MAX_STEPS)
+    batch_size: int = setting(256, "(s, s', s+, z) tuples per gradient step", low=1, high=65_536)
+    hidden: tuple[int, ...] = setting((256,), "hidden widths of φ, ψ and T before the embedding layer", low=1, high=4096)
+    embedding_dim: int = setting(256, "dimension of φ(s)", low=1, high=4096)
+    layer_norm: bool = setting(True, "LayerNorm after each layer of φ, ψ, T (JAX ICVF; the authors' PyTorch port has none)")
+    ensemble: int = setting(2, "independent value functions (φ is taken from the first)", low=1, high=64)
+    lr: float = setting(3e-4, "Adam learning rate", low=1e-7, high=1.0)
+    gamma: float = setting(0.99, "discount of the intention-conditioned values", low=0.0, below=1.0)
+    tau: float = setting(0.005, "Polyak rate of the target network", low=0.0, high=1.0)
+    expectile: float = setting(0.9, "expectile of the value regression", low=0.0, high=1.0)
+    p_goal_current: float = setting(0.2, "goal = the current state with this probability", low=0.0, high=1.0)
+    p_goal_trajectory: float = setting(0.5, "goal = a later state of the same trajectory (else a random dataset state)", low=0.0, high=1.0)
+    p_outcome_is_goal: float = setting(0.5, "outcome s+ = the goal z with this probability (else drawn anew)", low=0.0, high=1.0)
+    holdout_fraction: float = setting(0.1, "episodes held out of training for the quality probe", low=0.0, below=1.0)
+    log_every: int = setting(500, "log the loss and probe every this many steps", low=1, high=MAX_STEPS)
+
+    def check(self) -> None:
+        trajectory_goals = vars(self)["p_goal_current"] + vars(self)["p_goal_trajectory"]
+        if trajectory_goals > 1.0 + 1e-9:
+            raise LwailError(
+                f"icvf.p_goal_current + icvf.p_goal_trajectory must be at most 1 (the rest are random goals), got {trajectory_goals:g}"
+            )
 
 
+@dataclass(frozen=True)
+class EmbedConfig(Validated):
+    kind: str = setting("icvf", "icvf, or identity for the paper's no-embedding ablation", choices=("icvf", "identity"))
+    icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (unused by the identity)")
+
+
+@dataclass(frozen=True)
+class WarmupConfig(Validated):
+    critic: CriticConfig = section(CriticConfig, "the discriminator f")
+    steps: int = setting(2_500, "full-batch warm-up steps of f", low=1, high=MAX_STEPS)
+    transitions: int = setting(4_000, "random-policy (s, s') pairs f is warmed up against", low=1, high=MAX_BUFFER)
+    expert_episodes: int = setting(1, "expert trajectories used", low=1, high=10_000)
+
+
+@dataclass(frozen=True)
+class ImitationConfig(Validated):
+    td3: TD3Config = section(TD3Config, "TD3 settings")
+    train: TrainConfig = section(TrainConfig, "run schedule")
+    update_every: int = setting(4_000, "train f (and relabel the buffer) every this many env steps", low=1, high=MAX_STEPS)
+    update_steps: int = setting(40, "full-batch steps of f per update (paper: 40, authors' code: 30)", low=0, high=100_000)
+    expert_episodes: int = setting(1, "expert trajectories to imitate", low=1, high=10_000)
+
+
+@dataclass(frozen=True)
+class EvalConfig(Validated):
+    episodes: int = setting(10, "deterministic evaluation episodes", low=1, high=10_000)
+    seed: int = setting(100, "seed of the first evaluation episode (the others count up)", low=0, high=2**31)
+
+
+STAGES: dict[str, type] = {  # keyed by the command that takes the config
+    "collect": CollectConfig,
+    "expert-train": ExpertConfig,
+    "expert-record": RecordConfig,
+    "pretrain-icvf": EmbedConfig,
+    "warmup-disc": WarmupConfig,
+    "imitate": ImitationConfig,
+    "eval": EvalConfig,
+}
+
+
+# ------------------------------------------------------------------------------ dicts and overrides
 def to_dict(config) -> dict:
-    return dataclasses.asdict(config)
+    """The config as plain data for a manifest (read through ``vars`` so recording is not "using")."""
+    return {name: to_dict(value) if dataclasses.is_dataclass(value) else (list(value) if isinstance(value, tuple) else value)
+            for name, value in vars(config).items()}
 
 
 def from_dict(cls, data: dict):
@@ -118,14 +239,17 @@ def _parse(text: str, hint, key: str):
         if typing.get_origin(hint) is tuple:
             return tuple(int(v) for v in text.replace(" ", "").strip("()[]").split(",") if v)
         if hint is int:
-            return int(float(text)) if "e" in text.lower() else int(text)
+            number = float(text) if "e" in text.lower() else int(text)
+            if isinstance(number, float) and not number.is_integer():
+                raise ValueError(text)
+            return int(number)
         return hint(text)
-    except ValueError:
+    except (ValueError, OverflowError):
         raise LwailError(f"--set {key}: cannot read {text!r} as {getattr(hint, '__name__', hint)}") from None
 
 
 def with_overrides(config, assignments: list[str]):
-    """Apply ``section.field=value`` assignments to a frozen config, checking names and types."""
+    """Apply ``section.field=value`` assignments to a frozen config, checking names, types and bounds."""
     for assignment in assignments:
         key, sep, text = assignment.partition("=")
         if not sep:
@@ -139,7 +263,7 @@ def _replace_path(config, path: list[str], text: str, key: str):
     if path[0] not in names:
         raise LwailError(f"--set {key}: unknown setting {path[0]!r}; known: {', '.join(sorted(names))}")
     hint = typing.get_type_hints(type(config))[path[0]]
-    current = getattr(config, path[0])
+    current = vars(config)[path[0]]
     if len(path) > 1:
         if not dataclasses.is_dataclass(current):
             raise LwailError(f"--set {key}: {path[0]!r} has no sub-settings")
@@ -151,5 +275,15 @@ def _replace_path(config, path: list[str], text: str, key: str):
     return dataclasses.replace(config, **{path[0]: value})
 
 
-def describe(config) -> str:
-    return json.dumps(to_dict(config), indent=2)
+def describe(config, indent: str = "") -> str:
+    """Each setting with its default and its one-line doc, as ``--set`` names it."""
+    lines = []
+    for f in dataclasses.fields(config):
+        value = vars(config)[f.name]
+        if dataclasses.is_dataclass(value):
+            lines.append(f"{indent}{f.name}:  # {f.metadata['doc']}")
+            lines.append(describe(value, indent + "  "))
+        else:
+            shown = json.dumps(list(value) if isinstance(value, tuple) else value)
+            lines.append(f"{indent}{f.name} = {shown}  # {f.metadata['doc']}")
+    return "\n".join(lines)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -83,38 +82,6 @@ def validate_episodes(episodes: list[Episode], env: EnvInfo, source: str) -> Non
             raise LwailError(f"{source} contains NaN or infinite observations")
     if sum(e.length for e in episodes) == 0:
         raise LwailError(f"{source} holds no transitions (every episode has a single observation)")
-
-
-def collect_random(env: gym.Env, transitions: int, seed: int, on_step: Callable[[int], None] | None = None) -> list[Episode]:
-    """Roll out a uniformly random policy for exactly ``transitions`` steps.
-
-    The last episode is cut when the budget runs out and is then recorded as truncated.
-    """
-    env.action_space.seed(seed)
-    episodes: list[Episode] = []
-    obs, _ = env.reset(seed=seed)
-    observations, actions, rewards = [obs], [], []
-    for step in range(transitions):
-        action = env.action_space.sample()
-        obs, reward, terminated, truncated, _ = env.step(action)
-        observations.append(obs)
-        actions.append(action)
-        rewards.append(reward)
-        if terminated or truncated or step == transitions - 1:
-            episodes.append(
-                Episode(
-                    observations=np.asarray(observations, dtype=np.float32),
-                    actions=np.asarray(actions, dtype=np.float32),
-                    rewards=np.asarray(rewards, dtype=np.float32),
-                    terminated=bool(terminated),
-                )
-            )
-            if step < transitions - 1:
-                obs, _ = env.reset()
-                observations, actions, rewards = [obs], [], []
-        if on_step is not None:
-            on_step(step + 1)
-    return episodes
 
 
 # ------------------------------------------------------------------------------ Minari format

@@ -1,7 +1,8 @@
 """The Kantorovich–Rubinstein critic f (the discriminator) and the pseudo-reward σ(−f).
 
-f is trained to be low on expert transitions and high on the policy's (SPEC.md, stage 2):
-loss = mean f(x_E) − mean f(x_π) + λ·mean(‖∇f(x̂)‖₂ − 1)², on x = [φ(s), φ(s') − φ(s)].
+f is trained to be low on expert transitions and high on the policy's:
+loss = mean g(f(x_E)) − mean g(f(x_π)) + λ·mean(‖∇f(x̂)‖₂ − 1)², on x = [φ(s), φ(s') − φ(s)],
+with g = tanh (the authors' code) or the identity (the paper's plain dual); see docs/algorithm.md.
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import DiscriminatorConfig
+from .config import CriticConfig
 from .nets import mlp
 
 
@@ -37,7 +38,7 @@ def gradient_penalty(critic: Critic, expert: torch.Tensor, policy: torch.Tensor)
     return (gradient.norm(2, dim=-1) - 1.0).square().mean()
 
 
-def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, config: DiscriminatorConfig) -> tuple[torch.Tensor, torch.Tensor]:
+def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, config: CriticConfig) -> tuple[torch.Tensor, torch.Tensor]:
     """The loss to minimise and the critic's Wasserstein estimate ``E_π f − E_E f``."""
     f_expert, f_policy = critic(expert), critic(policy)
     if config.tanh:
@@ -47,9 +48,9 @@ def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, conf
 
 
 class DiscriminatorTrainer:
-    """Full-batch critic updates: ``batch_size`` expert rows drawn with replacement against the policy rows."""
+    """Full-batch critic updates: as many expert rows, drawn with replacement, as there are policy rows."""
 
-    def __init__(self, critic: Critic, config: DiscriminatorConfig):
+    def __init__(self, critic: Critic, config: CriticConfig):
         self.critic = critic
         self.config = config
         device = next(critic.parameters()).device

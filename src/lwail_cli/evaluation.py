@@ -1,13 +1,13 @@
-"""Deterministic rollouts on the true reward and D4RL-style normalized scores."""
+"""D4RL-style normalized scores (the reference returns a score is measured against) and rank correlation."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
+import pandas as pd
 
-from .envs import make_env
+from .rollout import rollout
 
 # D4RL's reference returns (random, expert), from D4RL's infos.py.
 D4RL_REFERENCES: dict[str, tuple[float, float]] = {
@@ -48,38 +48,19 @@ def d4rl_reference(env_id: str) -> Reference | None:
     return Reference(low, high, f"D4RL {family} reference returns ({low} / {high})")
 
 
-def rollout_returns(
-    env_id: str,
-    policy: Callable[[np.ndarray], np.ndarray] | None,
-    episodes: int,
-    seed: int,
-) -> np.ndarray:
-    """Returns of ``episodes`` episodes run side by side, the policy called once per step on the batch
-    of live episodes. ``policy=None`` samples uniformly random actions."""
-    envs = [make_env(env_id) for _ in range(episodes)]
-    try:
-        observations = [env.reset(seed=seed + index)[0] for index, env in enumerate(envs)]
-        for index, env in enumerate(envs):
-            env.action_space.seed(seed + index)
-        returns = np.zeros(episodes)
-        live = list(range(episodes))
-        while live:
-            if policy is None:
-                actions = [envs[i].action_space.sample() for i in live]
-            else:
-                actions = policy(np.stack([observations[i] for i in live]).astype(np.float32))
-            still_live = []
-            for i, action in zip(live, actions):
-                observations[i], reward, terminated, truncated, _ = envs[i].step(action)
-                returns[i] += reward
-                if not (terminated or truncated):
-                    still_live.append(i)
-            live = still_live
-        return returns
-    finally:
-        for env in envs:
-            env.close()
+RANDOM_REFERENCE_EPISODES = 10
+RANDOM_REFERENCE_SEED = 12345  # fixed, so a task's measured random-policy reference never changes
 
 
-def random_policy_return(env_id: str, episodes: int = 10, seed: int = 12345) -> float:
-    return float(rollout_returns(env_id, None, episodes, seed).mean())
+def random_policy_return(env_id: str) -> float:
+    """The mean return of a uniformly random policy: the 0 of a normalized score without D4RL refs."""
+    seeds = range(RANDOM_REFERENCE_SEED, RANDOM_REFERENCE_SEED + RANDOM_REFERENCE_EPISODES)
+    return float(rollout(env_id, None, seeds).returns.mean())
+
+
+def spearman(x: np.ndarray, y: np.ndarray) -> float:
+    """Pearson correlation of average ranks (ties share their mean rank); NaN when either side is constant."""
+    rx, ry = pd.Series(x).rank().to_numpy(), pd.Series(y).rank().to_numpy()
+    if len(rx) < 2 or np.all(rx == rx[0]) or np.all(ry == ry[0]):
+        return float("nan")
+    return float(np.corrcoef(rx, ry)[0, 1])

@@ -1,7 +1,7 @@
 """ICVF pre-training (Ghosh et al., 2023) of the state embedding φ, and its quality probe.
 
 ``V(s, s+, z) = Σ A(t ⊙ φ(s)) ⊙ B(t ⊙ ψ(s+))`` with ``t = T(ψ(z))``, an ensemble of independent
-value functions trained by expectile regression on action-free transitions (SPEC.md, stage 1).
+value functions trained by expectile regression on action-free transitions (docs/algorithm.md, stage 1).
 All ensemble members run as one batched matmul; goal sampling happens on the compute device.
 """
 
@@ -19,12 +19,12 @@ from torch import nn
 
 from .config import ICVFConfig
 from .data import Episode, flatten
-from .nets import StackedMLP
-from .td3 import soft_update
+from .evaluation import spearman
+from .nets import StackedMLP, soft_update
 
 
 def _embedding_net(members: int, in_dim: int, config: ICVFConfig) -> StackedMLP:
-    return StackedMLP(members, in_dim, config.hidden, config.embedding_dim, activation="gelu", activate_final=True, layer_norm=True)
+    return StackedMLP(members, in_dim, config.hidden, config.embedding_dim, activation="gelu", activate_final=True, layer_norm=config.layer_norm)
 
 
 class ICVF(nn.Module):
@@ -162,11 +162,6 @@ def probe_spearman(encode: Callable[[torch.Tensor], torch.Tensor], episodes: lis
     if not latent:
         return float("nan")
     return spearman(np.concatenate(latent), np.concatenate(temporal))
-
-
-def spearman(x: np.ndarray, y: np.ndarray) -> float:
-    """Pearson correlation of average ranks (ties share their mean rank)."""
-    return float(np.corrcoef(pd.Series(x).rank().to_numpy(), pd.Series(y).rank().to_numpy())[0, 1])
 
 
 @dataclass

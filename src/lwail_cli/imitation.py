@@ -1,4 +1,4 @@
-"""LWAIL's reward schedule inside the TD3 loop (paper Alg. 1, SPEC.md stage 3).
+"""LWAIL's reward schedule inside the TD3 loop (paper Alg. 1; docs/algorithm.md).
 
 A new transition is rewarded with the current f as it enters the buffer. Critic inputs
 ``[φ(s), φ(s')−φ(s)]`` are cached (φ is frozen) one update window at a time. Every ``update_every`` env steps f is trained on the last
@@ -8,23 +8,28 @@ relabelled to σ(−f) with the new f, so all rewards always come from the curre
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
 
-from .config import DiscriminatorConfig
-from .discriminator import DiscriminatorTrainer, transition_features
-from .icvf import Encoder
-from .replay import ReplayBuffer
+from .discriminator import transition_features
+
+if TYPE_CHECKING:
+    from .discriminator import DiscriminatorTrainer
+    from .icvf import Encoder
+    from .replay import ReplayBuffer
 
 RELABEL_CHUNK = 65_536
 
 
 class AdversarialReward:
-    def __init__(self, encoder: Encoder, trainer: DiscriminatorTrainer, expert_features: torch.Tensor, capacity: int, config: DiscriminatorConfig):
+    def __init__(self, encoder: Encoder, trainer: DiscriminatorTrainer, expert_features: torch.Tensor, capacity: int, *, update_every: int, update_steps: int):
         self.encoder = encoder
         self.trainer = trainer
         self.expert_features = expert_features
-        self.config = config
+        self.update_every = update_every
+        self.update_steps = update_steps
         self.features = torch.zeros(capacity, expert_features.shape[1], device=expert_features.device)
         self.labeled = 0  # buffer.count up to which rewards are current
         self.featured = 0  # buffer.count up to which features are cached (a multiple of update_every)
@@ -39,7 +44,7 @@ class AdversarialReward:
     def _cache_features(self, buffer: ReplayBuffer, upto: int) -> None:
         """Features in blocks of one update window each: the same blocks on a resumed run, so
         the same floats (a matmul's rounding depends on its batch size)."""
-        window = self.config.update_every
+        window = self.update_every
         for start in range(self.featured, upto, window):
             stop = min(start + window, upto)
             rows = np.arange(max(start, buffer.count - buffer.capacity), stop) % buffer.capacity
@@ -55,11 +60,11 @@ class AdversarialReward:
             rows = buffer.rows_since(self.labeled)
             buffer.storage["rewards"][torch.as_tensor(rows, device=self.features.device), 0] = self.trainer.reward(self._features(buffer, rows))
             self.labeled = buffer.count
-        if step % self.config.update_every == 0:
+        if step % self.update_every == 0:
             self._cache_features(buffer, buffer.count)
-            recent = torch.as_tensor(buffer.rows_since(buffer.count - self.config.update_every), device=self.features.device)
+            recent = torch.as_tensor(buffer.rows_since(buffer.count - self.update_every), device=self.features.device)
             with torch.enable_grad():
-                self.trainer.train(self.expert_features, self.features[recent], self.config.update_steps)
+                self.trainer.train(self.expert_features, self.features[recent], self.update_steps)
             self.relabel(buffer)
             self.recent_reward = buffer.storage["rewards"][recent].mean()
 

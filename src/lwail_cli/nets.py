@@ -1,4 +1,4 @@
-"""Network building blocks shared by ICVF, the discriminator and TD3.
+"""Network building blocks shared by ICVF, the discriminator and TD3, and the Polyak target update.
 
 ``StackedMLP`` holds ``members`` independent MLPs (TD3's twin critics, ICVF's ensemble) as stacked
 weights so that all members run as one batched matmul instead of one small matmul each.
@@ -13,6 +13,13 @@ import torch.nn.functional as F
 from torch import nn
 
 ACTIVATIONS = {"relu": F.relu, "gelu": F.gelu}
+
+
+def soft_update(target: nn.Module, source: nn.Module, tau: float) -> None:
+    """``target ← (1−τ)·target + τ·source`` as two foreach ops over every tensor."""
+    target_params = list(target.parameters())
+    torch._foreach_mul_(target_params, 1.0 - tau)
+    torch._foreach_add_(target_params, list(source.parameters()), alpha=tau)
 
 
 def mlp(in_dim: int, hidden: tuple[int, ...], out_dim: int, activate_final: bool = False) -> nn.Sequential:

@@ -15,7 +15,7 @@ from torch import nn
 
 from .config import TD3Config
 from .envs import EnvInfo
-from .nets import StackedMLP, mlp
+from .nets import StackedMLP, mlp, soft_update
 
 
 class Actor(nn.Module):
@@ -38,13 +38,6 @@ class Actor(nn.Module):
 
 def _adam(params, lr: float, device: torch.device) -> torch.optim.Adam:
     return torch.optim.Adam(params, lr=lr, fused=device.type in ("cpu", "cuda"))
-
-
-def soft_update(target: nn.Module, source: nn.Module, tau: float) -> None:
-    """``target ← (1−τ)·target + τ·source`` as two foreach ops over every tensor."""
-    target_params = list(target.parameters())
-    torch._foreach_mul_(target_params, 1.0 - tau)
-    torch._foreach_add_(target_params, list(source.parameters()), alpha=tau)
 
 
 class TD3:

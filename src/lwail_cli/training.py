@@ -9,17 +9,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 import gymnasium as gym
 import numpy as np
 import torch
 
-from .config import TD3Config, TrainConfig
 from .envs import make_env
-from .evaluation import Reference, rollout_returns
-from .replay import ReplayBuffer
-from .td3 import TD3
+from .rollout import rollout
+
+if TYPE_CHECKING:
+    from .config import TD3Config, TrainConfig
+    from .evaluation import Reference
+    from .replay import ReplayBuffer
+    from .td3 import TD3
 
 
 class RewardModel(Protocol):
@@ -64,7 +67,7 @@ class RunState:
 
 
 def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None) -> dict[str, float]:
-    returns = rollout_returns(env_id, agent.act, episodes, seed)
+    returns = rollout(env_id, agent.act, range(seed, seed + episodes)).returns
     row = {"return_mean": float(returns.mean()), "return_std": float(returns.std())}
     if reference is not None:
         row["normalized_score"] = reference.normalize(row["return_mean"])
@@ -83,7 +86,7 @@ def _env_state(env: gym.Env) -> dict:
         model, data = env.unwrapped.model, env.unwrapped.data
         physics = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_INTEGRATION))
         mujoco.mj_getState(model, data, physics, mujoco.mjtState.mjSTATE_INTEGRATION)
-        state["mujoco"] = physics
+        state["mujoco"] = torch.from_numpy(physics)  # tensors only: checkpoints load with weights_only=True
     return state
 
 
@@ -94,7 +97,7 @@ def _restore_env_state(env: gym.Env, state: dict) -> None:
         import mujoco
 
         model, data = env.unwrapped.model, env.unwrapped.data
-        mujoco.mj_setState(model, data, state["mujoco"], mujoco.mjtState.mjSTATE_INTEGRATION)
+        mujoco.mj_setState(model, data, state["mujoco"].numpy(), mujoco.mjtState.mjSTATE_INTEGRATION)
         mujoco.mj_forward(model, data)
     limit = _time_limit(env)
     if limit is not None and state["elapsed_steps"] is not None:
@@ -142,7 +145,7 @@ def train_td3(
         if resume.get("cuda_rng") is not None:
             torch.cuda.set_rng_state_all(resume["cuda_rng"])
         _restore_env_state(env, resume["env"])
-        obs = resume["obs"]
+        obs = resume["obs"].numpy()
     low, high = env.action_space.low, env.action_space.high
     noise_std = td3.exploration_noise * (high - low) / 2
     started = time.perf_counter() - run.wall_time
@@ -168,7 +171,7 @@ def train_td3(
             if run.step % train.eval_every == 0 or run.step == train.steps:
                 run.wall_time = time.perf_counter() - started
                 row = {"step": run.step, "wall_time": run.wall_time}
-                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + 10_000, reference))
+                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference))
                 row.update(reward_model.metrics())
                 if run.best_actor is None or row["return_mean"] > run.best_return:
                     run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
@@ -190,7 +193,7 @@ def train_td3(
                         "torch_rng": torch.get_rng_state(),
                         "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
                         "env": _env_state(env),
-                        "obs": obs,
+                        "obs": torch.from_numpy(np.asarray(obs)),
                     }
                 )
     finally:

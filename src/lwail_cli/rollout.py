@@ -1,0 +1,105 @@
+"""The one loop that plays a policy in an environment: collection, recording and evaluation all use it.
+
+Episodes run side by side, one environment each, and the policy is called once per step on the batch
+of live observations (one matmul instead of one per episode). Each environment is reset with its own
+seed and its action space seeded with it, so a rollout is reproducible episode by episode.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .data import Episode
+from .envs import make_env
+
+Policy = Callable[[np.ndarray], np.ndarray]  # a batch of float32 observations -> a batch of actions
+
+
+@dataclass
+class Rollouts:
+    returns: np.ndarray  # (episodes,) float64 true returns, in seed order
+    episodes: list[Episode]  # the episodes themselves when recorded (else empty), in seed order
+
+
+def rollout(
+    env_id: str,
+    policy: Policy | None,
+    seeds: Sequence[int],
+    *,
+    record: bool = False,
+    transitions: int | None = None,
+    on_step: Callable[[int], None] | None = None,
+) -> Rollouts:
+    """One episode per seed; ``policy=None`` samples uniformly random actions.
+
+    With ``transitions``, a single environment (one seed) plays episode after episode, later resets
+    unseeded, until exactly that many transitions; the last episode, cut by the budget, is truncated.
+    ``on_step`` gets the running count of transitions."""
+    if transitions is not None and len(seeds) != 1:
+        raise ValueError("a transition budget runs one environment")
+    envs = [make_env(env_id) for _ in seeds]
+    try:
+        observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds)]
+        for env, seed in zip(envs, seeds):
+            env.action_space.seed(seed)
+        traces = [_Trace(obs) for obs in observations]
+        finished: list[list[_Trace]] = [[] for _ in seeds]
+        live, steps = list(range(len(envs))), 0
+        while live:
+            if policy is None:
+                actions = [envs[i].action_space.sample() for i in live]
+            else:
+                actions = policy(np.stack([observations[i] for i in live]).astype(np.float32))
+            still_live = []
+            for i, action in zip(live, actions):
+                observations[i], reward, terminated, truncated, _ = envs[i].step(action)
+                traces[i].add(observations[i], action, reward, record)
+                steps += 1
+                cut = transitions is not None and steps == transitions
+                if terminated or truncated or cut:
+                    traces[i].terminated = bool(terminated)
+                    finished[i].append(traces[i])
+                    if transitions is not None and not cut:
+                        observations[i] = envs[i].reset()[0]
+                        traces[i] = _Trace(observations[i])
+                        still_live.append(i)
+                else:
+                    still_live.append(i)
+                if on_step is not None:
+                    on_step(steps)
+            live = still_live
+    finally:
+        for env in envs:
+            env.close()
+    done = [trace for slot in finished for trace in slot]
+    return Rollouts(
+        returns=np.array([trace.total for trace in done]),
+        episodes=[trace.episode() for trace in done] if record else [],
+    )
+
+
+class _Trace:
+    """One episode as it is played: its running return and, when recorded, its data."""
+
+    def __init__(self, first_observation: np.ndarray):
+        self.total = 0.0
+        self.terminated = False
+        self.observations, self.actions, self.rewards = [first_observation], [], []
+
+    def add(self, observation, action, reward: float, record: bool) -> None:
+        self.total += reward
+        if record:
+            self.observations.append(observation)
+            self.actions.append(action)
+            self.rewards.append(reward)
+
+    def episode(self) -> Episode:
+        return Episode(
+            observations=np.asarray(self.observations, dtype=np.float32),
+            actions=np.asarray(self.actions, dtype=np.float32),
+            rewards=np.asarray(self.rewards, dtype=np.float32),
+            terminated=self.terminated,
+        )

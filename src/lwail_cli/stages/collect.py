@@ -1,0 +1,63 @@
+"""Stage: state-only data set I — a uniformly random policy's episodes, or imported ones — as a Minari dataset."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..config import CollectConfig
+from ..data import Episode, write_minari
+from ..envs import describe_env, make_env
+from ..rollout import rollout
+from .shared import Progress, default_name, read_external
+
+if TYPE_CHECKING:
+    from ..artifacts import Artifact, Store
+
+
+def collect(
+    store: Store, *, env_id: str, config: CollectConfig, seed: int, name: str | None = None, on_progress: Progress | None = None
+) -> Artifact:
+    info = describe_env(env_id)
+    episodes = rollout(env_id, None, [seed], record=True, transitions=config.transitions,
+                       on_step=None if on_progress is None else lambda done: on_progress(done, {})).episodes
+    name = name or default_name(env_id, "random")
+    _write(store, name, info, episodes, {"source": "uniform-random", "transitions": config.transitions}, seed,
+           "uniform-random", "uniform-random policy, state-only use", {})
+    return store.resolve(f"dataset/{name}", "dataset")
+
+
+def import_dataset(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
+    info = describe_env(env_id)
+    episodes, source, extra = read_external(info, minari_id, npz)
+    name = name or default_name(env_id, "imported")
+    for episode in episodes:  # a state-only file has neither; Minari's format needs both
+        n = episode.length
+        episode.actions = episode.actions if episode.actions is not None else np.full((n, info.act_dim), np.nan, np.float32)
+        episode.rewards = episode.rewards if episode.rewards is not None else np.full(n, np.nan, np.float32)
+    _write(store, name, info, episodes, {"source": source}, None, source, f"imported from {source}", extra)
+    return store.resolve(f"dataset/{name}", "dataset")
+
+
+def _write(store, name, info, episodes: list[Episode], config: dict, seed, source: str, description: str, extra: dict) -> None:
+    env = make_env(info.id)  # Minari records the spaces from a real env of the registered id
+    try:
+        with store.create("dataset", name, env=info, config=config, seed=seed) as writer:
+            write_minari(episodes, writer.path("minari"), f"lwail/{name}-v0", env, source, description)
+            writer.metrics.update(_episode_metrics(episodes) | extra)
+    finally:
+        env.close()
+
+
+def _episode_metrics(episodes: list[Episode]) -> dict:
+    returns = [e.episode_return for e in episodes if e.rewards is not None and np.all(np.isfinite(e.rewards))]
+    metrics = {
+        "episodes": len(episodes),
+        "transitions": int(sum(e.length for e in episodes)),
+        "terminations": int(sum(e.terminated for e in episodes)),
+    }
+    if returns:
+        metrics["mean_return"] = float(np.mean(returns))
+    return metrics

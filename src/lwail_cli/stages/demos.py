@@ -1,0 +1,66 @@
+"""Stage: state-only expert demonstrations E — recorded from a policy, imported, or the bundled set."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..config import RecordConfig
+from ..data import Episode, validate_episodes, write_npz
+from ..envs import EnvInfo, describe_env, require_same_env
+from ..errors import LwailError
+from ..rollout import rollout
+from .shared import default_name, load_policy, policy_fn, read_external
+
+if TYPE_CHECKING:
+    from ..artifacts import Artifact, Store
+
+
+def record_demos(store: Store, *, policy_ref: str, config: RecordConfig, seed: int, name: str | None = None) -> Artifact:
+    policy = store.resolve(policy_ref, "policy")
+    info = policy.env
+    require_same_env(info, describe_env(info.id), f"policy {policy.ref}")
+    played = rollout(info.id, policy_fn(load_policy(policy)), range(seed, seed + config.episodes), record=True)
+    episodes = [Episode(observations=e.observations, terminated=e.terminated) for e in played.episodes]  # states only
+    name = name or default_name(info.id, "demos")
+    return _write_demos(store, name, info, episodes, played.returns, {"source": f"policy:{policy.ref}", "episodes": config.episodes}, seed, [policy])
+
+
+def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
+    info = describe_env(env_id)
+    episodes, source, extra = read_external(info, minari_id, npz)
+    returns = extra.pop("returns", None)
+    if returns is None and all(e.rewards is not None for e in episodes):
+        returns = [e.episode_return for e in episodes]
+    name = name or default_name(env_id, "demos")
+    returns = np.asarray(returns if returns is not None else [np.nan] * len(episodes), dtype=np.float64)
+    return _write_demos(store, name, info, episodes, returns, {"source": source, **extra}, None, [])
+
+
+def bundled_demos_path(env_id: str) -> Path:
+    folder = resources.files("lwail_cli") / "demos"
+    path = folder / f"{env_id}.npz"
+    if not path.is_file():
+        available = sorted(p.name[:-4] for p in folder.iterdir() if p.name.endswith(".npz"))
+        raise LwailError(f"no bundled demos for {env_id}; bundled: {', '.join(available) or 'none'}")
+    return Path(str(path))
+
+
+def import_bundled_demos(store: Store, *, env_id: str, name: str | None = None) -> Artifact:
+    return import_demos(store, env_id=env_id, name=name or default_name(env_id, "bundled-demos"), npz=bundled_demos_path(env_id))
+
+
+def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode], returns: np.ndarray, config: dict, seed, parents) -> Artifact:
+    validate_episodes(episodes, info, f"demos {name}")
+    with store.create("demos", name, env=info, config=config, seed=seed, parents=parents) as writer:
+        write_npz(writer.path("demos.npz"), episodes, returns)
+        writer.metrics.update({"episodes": len(episodes), "transitions": int(sum(e.length for e in episodes))})
+        if np.all(np.isfinite(returns)):
+            writer.metrics.update({"mean_return": float(returns.mean()), "return_std": float(returns.std())})
+        for key in ("ref_min_score", "ref_max_score"):
+            if key in config:
+                writer.metrics[key] = config[key]
+    return store.resolve(f"demos/{name}", "demos")

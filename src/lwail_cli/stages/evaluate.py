@@ -1,0 +1,34 @@
+"""Stage: evaluate a policy on the true reward, optionally as a D4RL-style normalized score."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..config import EvalConfig
+from ..envs import describe_env, require_same_env
+from ..errors import LwailError
+from ..rollout import rollout
+from .shared import lineage_demos, load_policy, now, policy_fn, reference_for_env
+
+if TYPE_CHECKING:
+    from ..artifacts import Store
+
+
+def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None) -> dict:
+    policy = store.resolve(policy_ref, "policy")
+    require_same_env(policy.env, describe_env(policy.env.id), f"policy {policy.ref}")
+    seeds = range(config.seed, config.seed + config.episodes)
+    returns = rollout(policy.env.id, policy_fn(load_policy(policy)), seeds).returns
+    result = {"policy": policy.ref, "episodes": config.episodes, "seed": config.seed,
+              "return_mean": float(returns.mean()), "return_std": float(returns.std())}
+    if normalized:
+        demos = store.resolve(demos_ref, "demos") if demos_ref else lineage_demos(store, policy)
+        if demos is not None:
+            require_same_env(policy.env, demos.env, f"demos {demos.ref}")
+        reference = reference_for_env(policy.env.id, demos)
+        if reference is None:
+            raise LwailError(f"no reference returns for {policy.env.id}: pass --demos with demos that carry returns")
+        result.update(normalized_score=reference.normalize(result["return_mean"]), reference=reference.source)
+    # one fixed set of columns, so every row of evals.csv reads back whether or not it was normalized
+    policy.append_log("evals.csv", {"created": now(), **result, "normalized_score": result.get("normalized_score", ""), "reference": result.get("reference", "")})
+    return result
