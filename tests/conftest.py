@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 import torch
@@ -9,7 +11,8 @@ from lwail_cli.cli import app
 
 @pytest.fixture(autouse=True)
 def _few_threads():
-    torch.set_num_threads(2)
+    # LWAIL_TEST_THREADS=1 when a long run shares the machine (two 2-thread torch processes on 2 cores crawl)
+    torch.set_num_threads(int(os.environ.get("LWAIL_TEST_THREADS", "2")))
 
 
 @pytest.fixture

@@ -74,3 +74,16 @@ def test_corrupt_checkpoint_is_refused_clearly(store):
     path.write_bytes(b"garbage" * 10)
     with pytest.raises(LwailError, match="corrupt"):
         store.load_checkpoint("policy", "run")
+
+
+def test_a_store_that_refuses_writes_is_a_clear_error_not_a_hang(store, monkeypatch):
+    import os
+
+    def refuse(source, target):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(os, "rename", refuse)
+    with pytest.raises(LwailError, match="cannot write .*Permission denied"):
+        write(store)
+    monkeypatch.undo()
+    assert store.list() == [] and not list((store.root / ".tmp").iterdir())  # nothing half-written, nothing left over

@@ -77,3 +77,9 @@ def test_mismatched_stage_artifacts_are_refused(cli, store, seeded, tmp_path):
     store.save_checkpoint("policy", "run", {"step": 1})
     (store.root / ".runs" / "policy" / "run" / "checkpoint.pt").write_bytes(b"\x00garbage")
     assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--name", "run", "--resume"), store, before, "is corrupt")
+
+
+@pytest.mark.parametrize("name", ["bad\n", "x" * 101, "-lead", "a/b"])
+def test_bad_artifact_names_are_refused(cli, store, seeded, tmp_path, name):
+    write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4)
+    assert_refused(cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", name), store, seeded, "artifact name")

@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -39,8 +40,9 @@ def test_fast_icvf_update_equals_textbook_icvf():
             assert torch.allclose(a, b, atol=1e-5), (a - b).abs().max()
 
 
-def test_fast_discriminator_update_equals_textbook_wgan_gp():
-    config = CriticConfig(hidden=(16, 16))
+@pytest.mark.parametrize("tanh", [True, False])
+def test_fast_discriminator_update_equals_textbook_wgan_gp(tanh):
+    config = CriticConfig(hidden=(16, 16), tanh=tanh)
     torch.manual_seed(0)
     critic = Critic(6, config.hidden)
     plain = copy.deepcopy(critic)
@@ -52,7 +54,7 @@ def test_fast_discriminator_update_equals_textbook_wgan_gp():
         trainer.train(expert, policy, 1)
         torch.manual_seed(step)
         index = torch.randint(0, expert.shape[0], (policy.shape[0],))  # the same expert draw
-        plain_critic_step(plain, optimizer, expert[index], policy, config.gp_weight)
+        plain_critic_step(plain, optimizer, expert[index], policy, config.gp_weight, config.tanh)
     for a, b in zip(critic.parameters(), plain.parameters()):
         assert torch.allclose(a, b, atol=1e-6)
     assert not torch.allclose(next(critic.parameters()), next(Critic(6, config.hidden).parameters()))

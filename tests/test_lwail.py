@@ -57,14 +57,16 @@ def test_gradient_penalty_of_a_linear_critic_is_known():
     assert gradient_penalty(critic, expert, policy).item() == pytest.approx(0.0, abs=1e-10)
 
 
-def test_critic_learns_to_separate_expert_from_policy():
-    config = cfg.CriticConfig(hidden=(16, 16))
+@pytest.mark.parametrize("tanh, wasserstein_at_least", [(False, 3.0), (True, 1.5)])
+def test_critic_learns_to_separate_expert_from_policy(tanh, wasserstein_at_least):
+    config = cfg.CriticConfig(hidden=(16, 16), tanh=tanh)
     torch.manual_seed(0)
     trainer = DiscriminatorTrainer(Critic(2, config.hidden), config)
     expert, policy = torch.randn(256, 2) + 2.0, torch.randn(256, 2) - 2.0
     trainer.train(expert, policy, 200)
-    assert trainer.reward(expert).mean() > 0.9 > 0.1 > trainer.reward(policy).mean()
-    assert trainer.last_wasserstein > 3.0  # the means are ‖(4, 4)‖ ≈ 5.7 apart
+    assert trainer.reward(expert).mean() > 0.85 > 0.15 > trainer.reward(policy).mean()
+    # the means are ‖(4, 4)‖ ≈ 5.7 apart; with tanh the estimate is of tanh f, so at most 2
+    assert trainer.last_wasserstein > wasserstein_at_least
 
 
 def test_relabelling_makes_every_reward_sigma_of_minus_current_f():

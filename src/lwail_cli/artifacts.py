@@ -28,7 +28,9 @@ from .errors import LwailError
 SCHEMA_VERSION = 1
 KINDS = ("dataset", "demos", "embedding", "discriminator", "policy")
 MANIFEST = "manifest.json"
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # used with fullmatch: a trailing newline is no name
+MAX_NAME = 100
+COMMIT_TRIES = 100  # version numbers tried before giving up on a store that other writers keep filling
 _REF = re.compile(r"^(?:(?P<kind>[a-z]+)/)?(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*?)(?:@v(?P<version>\d+))?$")
 
 
@@ -257,7 +259,7 @@ class Store:
         parent_dir = self.root / kind / name
         parent_dir.mkdir(parents=True, exist_ok=True)
         version = (self._versions(kind, name) or [0])[-1] + 1
-        while True:
+        for _ in range(COMMIT_TRIES):
             manifest["version"] = version
             manifest_path = writer.directory / MANIFEST
             manifest_path.write_text(json.dumps(manifest, indent=2))
@@ -266,8 +268,12 @@ class Store:
             try:
                 os.rename(writer.directory, parent_dir / f"v{version}")
                 break
-            except OSError:  # a concurrent writer took this version number
-                version += 1
+            except OSError as exc:
+                if not (parent_dir / f"v{version}").exists():  # not a concurrent writer: a store we cannot write
+                    raise LwailError(f"cannot write {parent_dir / f'v{version}'}: {exc.strerror or exc}") from None
+                version += 1  # a concurrent writer took this version number
+        else:
+            raise LwailError(f"gave up writing {kind}/{name}: {COMMIT_TRIES} version numbers were taken by other writers")
         _fsync_dir(parent_dir)
 
     # ---------------------------------------------------------------- checkpoints of runs in progress
@@ -302,13 +308,30 @@ class Store:
         except (RuntimeError, EOFError, OSError, pickle.UnpicklingError, ValueError) as exc:
             raise LwailError(f"--resume: the checkpoint {path} is corrupt ({type(exc).__name__}); rerun without --resume") from None
 
+    def run_log(self, kind: str, name: str, filename: str) -> Path:
+        """A CSV a run in progress (or a killed one) keeps beside its checkpoint."""
+        check_name(name)
+        return self.root / ".runs" / kind / name / filename
+
+    def write_run_log(self, kind: str, name: str, filename: str, rows: list[dict]) -> None:
+        """Rewrite a run's CSV atomically, so a reader never sees half a row (columns: every key, first seen first)."""
+        path = self.run_log(kind, name, filename)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        columns = list(dict.fromkeys(key for row in rows for key in row))
+        partial = path.with_suffix(".partial")
+        with open(partial, "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(rows)
+        os.replace(partial, path)
+
     def clear_checkpoint(self, kind: str, name: str) -> None:
         shutil.rmtree(self._checkpoint_path(kind, name).parent, ignore_errors=True)
 
 
 def check_name(name: str) -> None:
-    if not _NAME.match(name):
-        raise LwailError(f"artifact name {name!r} may hold only letters, digits, '.', '_' and '-'")
+    if not _NAME.fullmatch(name) or len(name) > MAX_NAME:
+        raise LwailError(f"artifact name {name!r} must be 1-{MAX_NAME} letters, digits, '.', '_' or '-', starting with a letter or digit")
 
 
 def _fsync_dir(path: Path) -> None:

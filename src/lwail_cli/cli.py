@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import re
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,6 +18,7 @@ from . import config as cfg
 from .artifacts import Store
 from .errors import LwailError
 from .stages import collect as collect_stage
+from .stages import curve as curve_stage
 from .stages import demos as demos_stage
 from .stages import embed as embed_stage
 from .stages import evaluate as evaluate_stage
@@ -205,6 +207,7 @@ def pretrain_icvf(
     batch_size: int = typer.Option(cfg.ICVFConfig.batch_size, "--batch-size", help="Tuples per gradient step."),
     embedding_dim: int = typer.Option(cfg.ICVFConfig.embedding_dim, "--embedding-dim", help="Dimension of φ(s)."),
     kind: str = typer.Option(cfg.EmbedConfig.kind, "--kind", help="icvf, or identity for the paper's no-embedding ablation."),
+    demos: Optional[str] = typer.Option(None, "--demos", help="Expert demos: also probe expert-vs-random separation and progress in φ (recommended)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -215,7 +218,9 @@ def pretrain_icvf(
     config = cfg.with_overrides(cfg.EmbedConfig(kind=kind, icvf=icvf), overrides)
     total = config.icvf.steps if config.kind == "icvf" else 0
     with progress_bar("pretrain-icvf", total) as report:
-        artifact = embed_stage.embed(store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), on_progress=report)
+        artifact = embed_stage.embed(
+            store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report
+        )
     say_written(artifact)
 
 
@@ -286,6 +291,24 @@ def _say_evaluation(result: dict) -> None:
     typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes")
     if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
+
+
+CURVE_COLUMNS = ("step", "wall_time", "return_mean", "return_std", "normalized_score", "reward_expert_mean", "pseudo_reward_mean",
+                 "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman")
+
+
+@command(app, "curve")
+def curve(
+    ref: str = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref."),
+    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder)."),
+) -> None:
+    """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill."""
+    history, source = curve_stage.read_curve(store(), ref=ref)
+    typer.echo(source)
+    shown = history[[column for column in CURVE_COLUMNS if column in history]]
+    typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))
+    path = out or Path(re.sub(r"[^A-Za-z0-9._-]", "_", ref) + "-curve.png")
+    typer.echo(f"wrote {curve_stage.plot_curve(history, path, ref)}")
 
 
 @command(app, "quickstart")

@@ -119,7 +119,7 @@ class CriticConfig(Validated):
     hidden: tuple[int, ...] = setting((64, 64), "hidden widths of f (ReLU)", low=1, high=4096)
     lr: float = setting(1e-3, "Adam learning rate of f (warm-up and online updates)", low=1e-7, high=1.0)
     gp_weight: float = setting(10.0, "weight λ of the WGAN-GP gradient penalty", low=0.0, high=1e4)
-    tanh: bool = setting(False, "loss on tanh f, as the authors' code (the reward stays σ(−f))")
+    tanh: bool = setting(True, "loss on tanh f, as the authors' code (false: the paper's plain dual); the reward stays σ(−f)")
 
 
 # ------------------------------------------------------------------------------ one config per stage

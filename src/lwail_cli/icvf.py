@@ -18,7 +18,7 @@ import torch
 from torch import nn
 
 from .config import ICVFConfig
-from .data import Episode, flatten
+from .data import Episode, flatten, transition_pairs
 from .evaluation import spearman
 from .nets import StackedMLP, soft_update
 
@@ -162,6 +162,37 @@ def probe_spearman(encode: Callable[[torch.Tensor], torch.Tensor], episodes: lis
     if not latent:
         return float("nan")
     return spearman(np.concatenate(latent), np.concatenate(temporal))
+
+
+@torch.no_grad()
+def probe_critic_needs(encode: Callable[[torch.Tensor], torch.Tensor], expert: list[Episode], random: list[Episode], max_pairs: int = 2000) -> dict[str, float]:
+    """What the critic needs from φ, on the critic's own input ``[φ(s), φ(s') − φ(s)]``:
+
+    - ``separation_auc``: how often a random-policy pair lies farther from the first expert trajectory
+      than a pair of another expert trajectory does (1 = always, 0.5 = chance; NaN with one trajectory);
+    - ``progress_spearman``: rank correlation of ``‖φ(s_t) − φ(s_T)‖`` with the steps to go ``T − t``
+      along the first expert trajectory (1 = distance to the goal shrinks at every step)."""
+
+    def pairs(episodes: list[Episode]) -> torch.Tensor:
+        states, next_states = (torch.as_tensor(side) for side in transition_pairs(episodes))
+        pick = torch.linspace(0, len(states) - 1, min(max_pairs, len(states))).long()
+        z, z_next = encode(states[pick]), encode(next_states[pick])
+        return torch.cat([z, z_next - z], dim=-1)
+
+    def nearest(candidates: torch.Tensor, reference: torch.Tensor) -> np.ndarray:
+        return torch.cat([torch.cdist(chunk, reference).amin(1) for chunk in candidates.split(1024)]).numpy()
+
+    first = expert[0]
+    z = encode(torch.as_tensor(first.observations, dtype=torch.float32))
+    to_goal = torch.linalg.vector_norm(z - z[-1], dim=-1).numpy()
+    progress = spearman(to_goal[:-1], np.arange(len(to_goal) - 1, 0, -1).astype(float))
+    separation = float("nan")
+    if len(expert) > 1 and random:
+        reference = pairs([first])
+        near_expert, near_random = nearest(pairs(expert[1:]), reference), nearest(pairs(random), reference)
+        ranks = pd.Series(np.concatenate([near_expert, near_random])).rank().to_numpy()[len(near_expert):]
+        separation = float((ranks.sum() - len(near_random) * (len(near_random) + 1) / 2) / (len(near_random) * len(near_expert)))
+    return {"separation_auc": separation, "progress_spearman": progress}
 
 
 @dataclass

@@ -14,20 +14,26 @@ import numpy as np
 import torch
 
 from .discriminator import transition_features
+from .evaluation import spearman
 
 if TYPE_CHECKING:
     from .discriminator import DiscriminatorTrainer
     from .icvf import Encoder
     from .replay import ReplayBuffer
+    from .rollout import Rollouts
 
 RELABEL_CHUNK = 65_536
 
 
 class AdversarialReward:
-    def __init__(self, encoder: Encoder, trainer: DiscriminatorTrainer, expert_features: torch.Tensor, capacity: int, *, update_every: int, update_steps: int):
+    def __init__(
+        self, encoder: Encoder, trainer: DiscriminatorTrainer, expert_features: torch.Tensor, capacity: int, *,
+        update_every: int, update_steps: int, random_features: torch.Tensor | None = None,
+    ):
         self.encoder = encoder
         self.trainer = trainer
         self.expert_features = expert_features
+        self.random_features = random_features  # random-policy pairs, only for diagnostics
         self.update_every = update_every
         self.update_steps = update_steps
         self.features = torch.zeros(capacity, expert_features.shape[1], device=expert_features.device)
@@ -75,8 +81,24 @@ class AdversarialReward:
             stop = min(start + RELABEL_CHUNK, buffer.size)
             rewards[start:stop, 0] = self.trainer.reward(self.features[start:stop])
 
-    def metrics(self) -> dict[str, float]:
-        return {"pseudo_reward_mean": float(self.recent_reward), "wasserstein_estimate": float(self.trainer.last_wasserstein)}
+    @torch.no_grad()
+    def metrics(self, evaluation: Rollouts) -> dict[str, float]:
+        """What explains a run at an evaluation: the reward f gives expert, recent-policy and random-policy
+        pairs, the critic's Wasserstein estimate, and whether the pseudo-return ranks the evaluation
+        episodes as their true return does."""
+        reward = self.trainer.reward
+        pseudo_returns = np.array([self._pseudo_return(episode.observations) for episode in evaluation.episodes])
+        return {
+            "reward_expert_mean": float(reward(self.expert_features).mean()),
+            "pseudo_reward_mean": float(self.recent_reward),  # the latest update_every policy pairs, at the last update of f
+            "reward_random_mean": float(reward(self.random_features).mean()) if self.random_features is not None else float("nan"),
+            "wasserstein_estimate": float(self.trainer.last_wasserstein),
+            "pseudo_return_spearman": spearman(pseudo_returns, evaluation.returns),
+        }
+
+    def _pseudo_return(self, observations: np.ndarray) -> float:
+        states = torch.as_tensor(observations, device=self.expert_features.device)
+        return float(self.trainer.reward(transition_features(self.encoder, states[:-1], states[1:])).sum())
 
     def state_dict(self) -> dict:
         # features are not saved (they can be GBs): the restored buffer holds the current rewards,

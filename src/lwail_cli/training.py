@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from .config import TD3Config, TrainConfig
     from .evaluation import Reference
     from .replay import ReplayBuffer
+    from .rollout import Rollouts
     from .td3 import TD3
 
 
@@ -29,7 +30,8 @@ class RewardModel(Protocol):
     def prepare(self, step: int, buffer: ReplayBuffer) -> None:
         """Make the buffer's rewards current before the update of env step ``step``."""
 
-    def metrics(self) -> dict[str, float]: ...
+    def metrics(self, evaluation: Rollouts) -> dict[str, float]:
+        """Diagnostics logged beside each evaluation (a fixed set of keys per reward model)."""
 
     def state_dict(self) -> dict: ...
 
@@ -42,7 +44,7 @@ class EnvironmentReward:
     def prepare(self, step: int, buffer: ReplayBuffer) -> None:
         pass
 
-    def metrics(self) -> dict[str, float]:
+    def metrics(self, evaluation: Rollouts) -> dict[str, float]:
         return {}
 
     def state_dict(self) -> dict:
@@ -66,12 +68,13 @@ class RunState:
     best_return: float = float("-inf")
 
 
-def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None) -> dict[str, float]:
-    returns = rollout(env_id, agent.act, range(seed, seed + episodes)).returns
-    row = {"return_mean": float(returns.mean()), "return_std": float(returns.std())}
+def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
+    """True return (and score) of the deterministic actor, and the reward model's diagnostics on the same episodes."""
+    evaluation = rollout(env_id, agent.act, range(seed, seed + episodes), record=True)
+    row = {"return_mean": float(evaluation.returns.mean()), "return_std": float(evaluation.returns.std())}
     if reference is not None:
         row["normalized_score"] = reference.normalize(row["return_mean"])
-    return row
+    return row | reward_model.metrics(evaluation)
 
 
 def _env_state(env: gym.Env) -> dict:
@@ -124,6 +127,7 @@ def train_td3(
     resume: dict | None = None,
     on_progress: Callable[[int, RunState], None] | None = None,
     on_checkpoint: Callable[[dict], None] | None = None,
+    on_evaluation: Callable[[RunState], None] | None = None,
     progress_every: int = 500,
 ) -> RunState:
     """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state.
@@ -171,12 +175,13 @@ def train_td3(
             if run.step % train.eval_every == 0 or run.step == train.steps:
                 run.wall_time = time.perf_counter() - started
                 row = {"step": run.step, "wall_time": run.wall_time}
-                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference))
-                row.update(reward_model.metrics())
+                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference, reward_model))
                 if run.best_actor is None or row["return_mean"] > run.best_return:
                     run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
                     run.best_step, run.best_return = run.step, row["return_mean"]
                 run.history.append(row)
+                if on_evaluation is not None:
+                    on_evaluation(run)
                 if on_progress is not None:
                     on_progress(run.step, run)
             elif on_progress is not None and run.step % progress_every == 0:

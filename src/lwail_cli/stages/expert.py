@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..config import ExpertConfig
-from .shared import PolicyRun, Progress, default_name, reference_for_env, save_weights, train_policy, write_history
+from .shared import PolicyRun, Progress, default_name, reference_for_env, save_weights, train_policy
 
 if TYPE_CHECKING:
     import torch
@@ -21,11 +21,10 @@ def train_expert(
         # an expert may keep its best evaluation: it trains on the true reward anyway
         save_weights(writer.path("actor.safetensors"), result.best_actor)
         save_weights(writer.path("final_actor.safetensors"), agent.actor.state_dict())
-        write_history(writer.path("training.csv"), result)
         writer.metrics.update({"actor": f"best evaluation, at step {result.best_step}", "best_return_mean": result.best_return})
 
     run = PolicyRun(
         env_id=env_id, name=name or default_name(env_id, "expert"), config=config, seed=seed, parents=[],
-        trained_on="true reward", reference=reference_for_env(env_id), reward_model=None, write=write,
+        trained_on="true reward", reference=reference_for_env(env_id), reward_model=None, curve_file="training.csv", write=write,
     )
     return train_policy(store, run, device=device, resume=resume, on_progress=on_progress)

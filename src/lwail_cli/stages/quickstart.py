@@ -78,7 +78,7 @@ def quickstart(
         data = collect(store, env_id=env_id, config=plan.collect, seed=seed, on_progress=report)
     written(data)
     with progress("2/4 pretrain-icvf", plan.embed.icvf.steps) as report:
-        embedding = embed(store, data_ref=data.ref, config=plan.embed, seed=seed, device=device, on_progress=report)
+        embedding = embed(store, data_ref=data.ref, config=plan.embed, seed=seed, device=device, demos_ref=demos.ref, on_progress=report)
     written(embedding)
     with progress("3/4 warmup-disc", plan.warmup.steps) as report:
         disc = warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=plan.warmup, seed=seed, device=device, on_progress=report)

@@ -203,6 +203,7 @@ class PolicyRun:
     trained_on: str
     reference: Reference | None
     reward_model: Callable[[int], RewardModel] | None  # builds it for a buffer capacity (after seeding torch)
+    curve_file: str  # the learning curve's CSV: beside the checkpoint while running, then in the artifact
     write: Callable[[ArtifactWriter, RunState, TD3, RewardModel | None], None]  # the stage's own files and metrics
     recorded: dict | None = None  # the manifest's config, when more than ``config`` (default: ``config``)
 
@@ -214,6 +215,11 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
     checkpoints = prepare_run(store, run.name, resume, {
         "config": record, "seed": run.seed, "env": run.env_id, "parents": [p.hash for p in run.parents]
     })
+    def log_curve(history: list[dict]) -> None:
+        store.write_run_log("policy", run.name, run.curve_file, history)
+
+    if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
+        log_curve(checkpoints.resume["run"]["history"])
     torch.manual_seed(run.seed)
     capacity = min(run.config.td3.buffer_size, run.config.train.steps)
     reward_model = run.reward_model(capacity) if run.reward_model is not None else None
@@ -223,9 +229,11 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
         run.env_id, agent, buffer, run.config.td3, run.config.train, run.seed, reward_model=reward_model,
         reference=run.reference, resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint,
         on_progress=None if on_progress is None else lambda step, state: on_progress(step, run_summary(state)),
+        on_evaluation=lambda state: log_curve(state.history),
     )
     extra = {"trained_on": run.trained_on}
     with store.create("policy", run.name, env=info, config=record, seed=run.seed, parents=run.parents, extra=extra) as writer:
+        write_history(writer.path(run.curve_file), result)
         run.write(writer, result, agent, reward_model)
         writer.metrics.update(final_metrics(result))
         if run.reference is not None:

@@ -1,0 +1,101 @@
+"""What explains a run: critic diagnostics at every evaluation, a live curve, and the embedding's critic probe."""
+
+import numpy as np
+import pytest
+import torch
+
+from lwail_cli import config as cfg
+from lwail_cli.data import Episode
+from lwail_cli.discriminator import Critic, DiscriminatorTrainer
+from lwail_cli.icvf import Encoder, probe_critic_needs
+from lwail_cli.imitation import AdversarialReward
+from lwail_cli.rollout import Rollouts
+from lwail_cli.stages import collect, demos, embed, imitate, warmup
+
+ENV = "InvertedPendulum-v5"
+
+
+def test_diagnostics_of_a_constant_critic_are_known():
+    critic = Critic(4, hidden=())
+    with torch.no_grad():
+        critic.net[0].weight.zero_()
+        critic.net[0].bias.fill_(1.0)  # f ≡ 1: every pair is rewarded σ(−1)
+    trainer = DiscriminatorTrainer(critic, cfg.CriticConfig(hidden=()))
+    model = AdversarialReward(Encoder(2, None), trainer, torch.randn(10, 4), 8, update_every=4, update_steps=1, random_features=torch.randn(6, 4))
+    lengths = [3, 7, 5]  # pseudo-return = σ(−1)·length, so it ranks episodes as returns 1, 3, 2 do
+    episodes = [Episode(observations=np.random.default_rng(n).normal(size=(n + 1, 2)).astype(np.float32)) for n in lengths]
+    row = model.metrics(Rollouts(returns=np.array([1.0, 3.0, 2.0]), episodes=episodes))
+    expected = 1 / (1 + np.e)
+    assert row["reward_expert_mean"] == pytest.approx(expected) and row["reward_random_mean"] == pytest.approx(expected)
+    assert row["pseudo_return_spearman"] == pytest.approx(1.0)
+    shuffled = model.metrics(Rollouts(returns=np.array([2.0, 1.0, 3.0]), episodes=episodes))
+    assert shuffled["pseudo_return_spearman"] == pytest.approx(-0.5)  # ranks (1, 3, 2) vs (2, 1, 3)
+
+
+def test_critic_probe_sees_progress_and_separation_in_raw_states():
+    rng = np.random.default_rng(0)
+    expert = [Episode(observations=np.stack([np.linspace(0, 10, 101), rng.normal(0, 0.01, 101)], 1).astype(np.float32)) for _ in range(3)]
+    random = [Episode(observations=rng.normal(0, 1, (30, 2)).astype(np.float32)) for _ in range(10)]
+    found = probe_critic_needs(lambda x: x, expert, random)
+    assert found["separation_auc"] == pytest.approx(1.0) and found["progress_spearman"] == pytest.approx(1.0)
+    backwards = [Episode(observations=e.observations[::-1].copy()) for e in expert]
+    assert probe_critic_needs(lambda x: x, backwards, random)["progress_spearman"] == pytest.approx(1.0)
+    assert np.isnan(probe_critic_needs(lambda x: x, expert[:1], random)["separation_auc"])  # needs a second trajectory
+
+
+class Killed(Exception):
+    pass
+
+
+@pytest.fixture
+def stages(store):
+    device = torch.device("cpu")
+    bundled = demos.import_bundled_demos(store, env_id=ENV)
+    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=600), seed=0)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, device=device, demos_ref=bundled.ref)
+    return store, device, bundled, embedding
+
+
+def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(stages, cli):
+    store, device, bundled, embedding = stages
+    assert 0.0 <= embedding.metrics["probe_separation_auc"] <= 1.0 and "probe_progress_spearman_raw" in embedding.metrics
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=5), seed=0, device=device)
+    config = cfg.ImitationConfig(
+        td3=cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64),
+        train=cfg.TrainConfig(steps=1500, eval_every=500, eval_episodes=2, checkpoint_every=500),
+        update_every=400, update_steps=2,
+    )
+    run = dict(env_id=ENV, demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config, seed=0, device=device, name="run")
+
+    def kill(step, shown):  # after the evaluation at 1000 is logged, before its checkpoint: resumes from 500
+        if step == 1000:
+            raise Killed
+
+    with pytest.raises(Killed):
+        imitate.imitate(store, on_progress=kill, **run)
+    result = cli("curve", "run", "--out", store.root / "live.png")
+    assert result.exit_code == 0, result.output
+    assert "in progress or killed" in result.output and (store.root / "live.png").stat().st_size > 0
+    lines = [line.split() for line in result.output.splitlines()]
+    assert [row[0] for row in lines if row and row[0].isdigit()] == ["500", "1000"]
+    header = next(row for row in lines if row and row[0] == "step")
+    for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman"):
+        assert column in header
+
+    finished = imitate.imitate(store, resume=True, **run)
+    import pandas as pd
+
+    curve = pd.read_csv(finished.file("learning_curve.csv"))
+    assert list(curve["step"]) == [500, 1000, 1500]
+    assert curve[["reward_expert_mean", "reward_random_mean"]].notna().all().all()
+    assert finished.config["critic"]["tanh"] is True  # inherited from the warm-up (default: tanh)
+    assert cli("curve", "run", "--out", store.root / "done.png").output.startswith("policy/run@v1")
+
+
+def test_imitate_keeps_the_loss_form_the_critic_was_warmed_up_with(stages, cli):
+    store, device, bundled, embedding = stages
+    assert cli("warmup-disc", embedding.ref, bundled.ref, "--set", "steps=2", "--set", "critic.tanh=false", "--name", "plain").exit_code == 0
+    result = cli("imitate", ENV, "--demos", bundled.ref, "--embedding", embedding.ref, "--disc", "plain", "--steps", "300",
+                 "--set", "td3.random_steps=100", "--set", "td3.learning_starts=300", "--eval-every", "300", "--set", "train.eval_episodes=1")
+    assert result.exit_code == 0, result.output
+    assert store.resolve("invertedpendulum-v5-lwail", "policy").config["critic"]["tanh"] is False
