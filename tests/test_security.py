@@ -1,10 +1,14 @@
 """Nothing read from disk may run code."""
 
+import json
 import os
 
+import pytest
 import torch
 
-from conftest import committed_versions
+from conftest import committed_versions, write_states_npz
+from lwail_cli.artifacts import _content_hash
+from lwail_cli.errors import LwailError
 
 
 class Payload:
@@ -25,3 +29,29 @@ def test_a_pickle_planted_in_a_checkpoint_is_refused_without_running(cli, store,
     assert result.exit_code == 1 and "is corrupt" in result.output and "Traceback" not in result.output
     assert not marker.exists()
     assert committed_versions(store) == before
+
+
+def _tamper(artifact, change):
+    manifest_path = artifact.path / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    change(manifest)
+    manifest_path.write_text(json.dumps(manifest))
+
+
+def test_manifest_paths_and_module_env_ids_are_refused(cli, store, tmp_path):
+    write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4, returns=[1.0, 2.0])
+    assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", "d").exit_code == 0
+    artifact = store.resolve("d", "demos")
+    _tamper(artifact, lambda m: m["files"].update({"../../../../etc/hostname": "0" * 64}))
+    result = cli("show", "demos/d")
+    assert result.exit_code == 1 and "outside its artifact" in result.output
+    _tamper(artifact, lambda m: (m["files"].pop("../../../../etc/hostname"), m["env"].update(id="os:system"),
+                                 m.update(hash=_content_hash(m["files"], m["env"], m["config"]))))  # a careful forger
+    with pytest.raises(LwailError, match="names a module to import"):
+        store.resolve("d", "demos").env  # every stage reads an artifact's env through here
+
+
+def test_minari_ids_stay_inside_the_local_store(cli, store, tmp_path):
+    for dataset_id in ("../elsewhere/data-v0", str(tmp_path / "abs-v0")):
+        result = cli("demos", "import", "InvertedPendulum-v5", "--from-minari", dataset_id)
+        assert result.exit_code == 1 and "inside the local Minari store" in result.output, result.output

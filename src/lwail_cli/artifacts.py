@@ -176,6 +176,8 @@ class Store:
             raise LwailError(f"{path} has unknown kind {manifest.get('kind')!r}")
         file_hashes = manifest.get("files", {})
         for filename, expected in file_hashes.items():
+            if Path(filename).is_absolute() or ".." in Path(filename).parts:
+                raise LwailError(f"{path / MANIFEST} names a file outside its artifact: {filename!r}")
             target = path / filename
             if not target.is_file():
                 raise LwailError(f"{path} is missing its data file {filename}")

@@ -153,8 +153,11 @@ def load_minari_directory(directory: Path) -> list[Episode]:
 
 
 def load_local_minari(dataset_id: str):
-    """A dataset from the local Minari store; never downloads."""
+    """A dataset from the local Minari store; never downloads, never reads outside the store."""
     from minari.storage import get_dataset_path
+
+    if Path(dataset_id).is_absolute() or ".." in Path(dataset_id).parts:
+        raise LwailError(f"Minari dataset id {dataset_id!r} must name a dataset inside the local Minari store")
 
     path = Path(get_dataset_path(dataset_id))
     if not (path / "data" / "metadata.json").is_file():

@@ -26,6 +26,9 @@ class EnvInfo:
 
     @classmethod
     def from_dict(cls, data: dict) -> EnvInfo:
+        """What a manifest recorded; an id that names a module (``module:Env``) would import code, so it is refused."""
+        if ":" in str(data["id"]):
+            raise LwailError(f"recorded env id {data['id']!r} names a module to import; lwail makes only registered ids from disk")
         return cls(
             id=data["id"],
             obs_dim=int(data["obs_dim"]),
