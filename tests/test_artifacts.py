@@ -34,7 +34,7 @@ def test_rerun_writes_a_new_version_and_refs_resolve(store):
     assert store.resolve("demo@v1", "embedding").file("data.bin").read_bytes() == b"one"
     assert store.resolve(str(first.path), "embedding").version == 1
     child = write(store, name="child", kind="discriminator", parents=[first])
-    assert child.manifest["parents"] == [{"ref": "embedding/demo@v1", "hash": first.hash}]
+    assert child.manifest["parents"] == [{"ref": "embedding/demo@v1", "hash": first.hash, "manifest_hash": first.manifest["manifest_hash"]}]
 
 
 def test_crash_while_writing_leaves_no_visible_version(store):

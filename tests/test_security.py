@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from conftest import committed_versions, write_states_npz
-from lwail_cli.artifacts import _content_hash
+from lwail_cli.artifacts import _content_hash, _manifest_hash
 from lwail_cli.errors import LwailError
 
 
@@ -45,8 +45,13 @@ def test_manifest_paths_and_module_env_ids_are_refused(cli, store, tmp_path):
     _tamper(artifact, lambda m: m["files"].update({"../../../../etc/hostname": "0" * 64}))
     result = cli("show", "demos/d")
     assert result.exit_code == 1 and "outside its artifact" in result.output
-    _tamper(artifact, lambda m: (m["files"].pop("../../../../etc/hostname"), m["env"].update(id="os:system"),
-                                 m.update(hash=_content_hash(m["files"], m["env"], m["config"]))))  # a careful forger
+    def forge(m):  # a careful forger recomputes both hashes
+        m["files"].pop("../../../../etc/hostname")
+        m["env"]["id"] = "os:system"
+        m["hash"] = _content_hash(m["files"], m["env"], m["config"])
+        m["manifest_hash"] = _manifest_hash(m)
+
+    _tamper(artifact, forge)
     with pytest.raises(LwailError, match="names a module to import"):
         store.resolve("d", "demos").env  # every stage reads an artifact's env through here
 
@@ -55,3 +60,35 @@ def test_minari_ids_stay_inside_the_local_store(cli, store, tmp_path):
     for dataset_id in ("../elsewhere/data-v0", str(tmp_path / "abs-v0")):
         result = cli("demos", "import", "InvertedPendulum-v5", "--from-minari", dataset_id)
         assert result.exit_code == 1 and "inside the local Minari store" in result.output, result.output
+
+
+def test_any_edit_of_a_manifest_is_detected_and_a_damaged_store_still_lists(cli, store, tmp_path):
+    write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4, returns=[1.0, 2.0])
+    for name in ("d", "e"):
+        assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", name).exit_code == 0
+    assert cli("verify").exit_code == 0
+    _tamper(store.resolve("d", "demos"), lambda m: m["metrics"].update(mean_return=9999.0))  # a flattering reference
+    assert cli("show", "demos/d").exit_code == 1
+    assert "manifest hash does not match" in cli("show", "demos/d").output
+    (store.resolve("e", "demos").path / "manifest.json").write_text("{ not json")
+    listing = cli("ls")
+    assert listing.exit_code == 0 and "DAMAGED" in listing.output and "demos" in listing.output
+    verified = cli("verify")
+    assert verified.exit_code == 1 and verified.output.count("DAMAGED") == 2 and "2 damaged" in verified.output
+
+
+def test_a_parent_changed_after_its_child_was_made_is_refused(cli, store, tmp_path):
+    write_states_npz(tmp_path / "data.npz", episodes=3, obs_dim=4)
+    write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4, returns=[1.0, 2.0])
+    assert cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "data.npz", "--name", "data").exit_code == 0
+    assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", "d").exit_code == 0
+    assert cli("pretrain-icvf", "data", "--kind", "identity", "--name", "ident").exit_code == 0
+    data = store.resolve("data", "dataset")
+
+    def rename(m):  # the edit is re-hashed, so only the child's record of its parent can tell
+        m["metrics"]["episodes"] = 99
+        m["manifest_hash"] = _manifest_hash(m)
+
+    _tamper(data, rename)
+    result = cli("warmup-disc", "ident", "d", "--set", "steps=2")
+    assert result.exit_code == 1 and "was changed after embedding/ident@v1 was made from it" in result.output

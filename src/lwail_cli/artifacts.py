@@ -25,7 +25,7 @@ from . import __version__
 from .envs import EnvInfo
 from .errors import LwailError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: the manifest itself is hashed, and children record their parents' manifest hashes
 KINDS = ("dataset", "demos", "embedding", "discriminator", "policy")
 MANIFEST = "manifest.json"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # used with fullmatch: a trailing newline is no name
@@ -44,6 +44,12 @@ def _sha256(path: Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def _manifest_hash(manifest: dict) -> str:
+    """The whole record (name, version, metrics, parents, ...), so any edit of a manifest is detected on read."""
+    body = {key: value for key, value in manifest.items() if key != "manifest_hash"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
 
 
 def _content_hash(file_hashes: dict[str, str], env: dict, config: dict) -> str:
@@ -163,11 +169,41 @@ class Store:
             raise LwailError(f"give kind/name (e.g. policy/hopper-v5-expert) or an artifact path, not {ref!r}")
         return self.resolve(ref, kind)
 
+    def resolve_parent(self, child: Artifact, kind: str) -> Artifact | None:
+        """The direct parent of ``kind`` a child was made from, refused if it changed since (None if it has none)."""
+        for entry in child.manifest.get("parents", []):
+            if entry["ref"].split("/")[0] == kind:
+                found = self.resolve(entry["ref"], kind)
+                if found.manifest["manifest_hash"] != entry.get("manifest_hash"):
+                    raise LwailError(f"{found.ref} was changed after {child.ref} was made from it")
+                return found
+        return None
+
+    def verify(self, ref: str | None = None) -> list[tuple[str, str | None]]:
+        """Every file of one artifact (every version of every artifact without ``ref``): (path, problem or None)."""
+        if ref is not None:
+            paths = [self.resolve_any(ref).path]
+        else:
+            paths = [folder / f"v{version}" for kind in KINDS if (self.root / kind).is_dir()
+                     for folder in sorted((self.root / kind).iterdir()) for version in self._versions(kind, folder.name)]
+        results = []
+        for path in paths:
+            try:
+                artifact = self._load(path)
+                for kind in {entry["ref"].split("/")[0] for entry in artifact.manifest.get("parents", [])}:
+                    self.resolve_parent(artifact, kind)
+                results.append((str(path), None))
+            except (LwailError, KeyError, TypeError, AttributeError) as exc:
+                results.append((str(path), str(exc) if isinstance(exc, LwailError) else f"malformed manifest ({type(exc).__name__}: {exc})"))
+        return results
+
     def _load(self, path: Path) -> Artifact:
         try:
             manifest = json.loads((path / MANIFEST).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise LwailError(f"cannot read the manifest of {path}: {exc}") from None
+        if not isinstance(manifest, dict):
+            raise LwailError(f"{path / MANIFEST} is not a manifest")
         if manifest.get("schema_version") != SCHEMA_VERSION:
             raise LwailError(
                 f"{path} has schema version {manifest.get('schema_version')}; this lwail reads {SCHEMA_VERSION}"
@@ -185,6 +221,8 @@ class Store:
                 raise LwailError(f"{path}/{filename} does not match its recorded hash: the artifact was modified")
         if _content_hash(file_hashes, manifest.get("env"), manifest.get("config")) != manifest.get("hash"):
             raise LwailError(f"{path} has an inconsistent content hash in its manifest")
+        if _manifest_hash(manifest) != manifest.get("manifest_hash"):
+            raise LwailError(f"{path / MANIFEST} was edited after it was written (its manifest hash does not match)")
         return Artifact(path=path, manifest=manifest)
 
     def _versions(self, kind: str, name: str) -> list[int]:
@@ -194,8 +232,9 @@ class Store:
         found = (re.fullmatch(r"v(\d+)", p.name) for p in folder.iterdir())
         return sorted(int(m[1]) for m in found if m and (folder / m[0] / MANIFEST).is_file())
 
-    def list(self) -> list[tuple[str, str, list[int], dict]]:
-        """Every (kind, name, versions, latest manifest) in the store, without re-hashing data."""
+    def list(self) -> list[tuple[str, str, list[int], dict | None]]:
+        """Every (kind, name, versions, latest manifest) in the store, without re-hashing data; the manifest is
+        None where it cannot be read (``lwail verify`` says why)."""
         rows = []
         for kind in KINDS:
             folder = self.root / kind
@@ -204,8 +243,11 @@ class Store:
             for name_dir in sorted(folder.iterdir()):
                 versions = self._versions(kind, name_dir.name)
                 if versions:
-                    manifest = json.loads((name_dir / f"v{versions[-1]}" / MANIFEST).read_text())
-                    rows.append((kind, name_dir.name, versions, manifest))
+                    try:
+                        manifest = json.loads((name_dir / f"v{versions[-1]}" / MANIFEST).read_text())
+                    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+                        manifest = None
+                    rows.append((kind, name_dir.name, versions, manifest if isinstance(manifest, dict) else None))
         return rows
 
     # ---------------------------------------------------------------- writing
@@ -250,7 +292,7 @@ class Store:
             "env": env.to_dict(),
             "config": config,
             "seed": seed,
-            "parents": [{"ref": p.ref, "hash": p.hash} for p in parents],
+            "parents": [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents],
             "package_version": __version__,
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "metrics": writer.metrics,
@@ -263,6 +305,7 @@ class Store:
         version = (self._versions(kind, name) or [0])[-1] + 1
         for _ in range(COMMIT_TRIES):
             manifest["version"] = version
+            manifest["manifest_hash"] = _manifest_hash(manifest)
             manifest_path = writer.directory / MANIFEST
             manifest_path.write_text(json.dumps(manifest, indent=2))
             with open(manifest_path, "rb+") as handle:

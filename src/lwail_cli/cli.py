@@ -339,6 +339,9 @@ def list_artifacts() -> None:
     header = ("KIND", "NAME", "VERSIONS", "ENV", "CREATED", "KEY METRIC")
     table = [header]
     for kind, name, versions, manifest in rows:
+        if manifest is None:
+            table.append((kind, name, ",".join(f"v{v}" for v in versions), "DAMAGED", "", "run `lwail verify` for details"))
+            continue
         metrics = manifest.get("metrics", {})
         key = next((k for k in ("normalized_score", "return_mean", "mean_return", "probe_spearman", "transitions") if k in metrics), None)
         table.append((kind, name, ",".join(f"v{v}" for v in versions), manifest["env"]["id"], manifest["created"][:19], f"{key}={_fmt(metrics[key])}" if key else ""))
@@ -351,6 +354,18 @@ def list_artifacts() -> None:
 def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.")) -> None:
     """Print one artifact's manifest."""
     typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
+
+
+@command(app, "verify")
+def verify(ref: Optional[str] = typer.Argument(None, help="kind/name[@vN] or a path (default: every artifact in the store).")) -> None:
+    """Re-hash every file and manifest of one artifact, or of the whole store; exit 1 if anything is damaged."""
+    results = store().verify(ref)
+    for path, problem in results:
+        typer.echo(f"ok       {path}" if problem is None else f"DAMAGED  {path}: {problem}")
+    damaged = sum(problem is not None for _, problem in results)
+    typer.echo(f"{len(results)} artifact versions checked, {damaged} damaged")
+    if damaged:
+        raise typer.Exit(1)
 
 
 @command(app, "defaults")

@@ -47,10 +47,10 @@ def imitate(
     disc = store.resolve(disc_ref, "discriminator")
     for artifact in (demos, embedding, disc):
         require_same_env(info, artifact.env, f"{artifact.kind} {artifact.ref}")
-    disc_embedding = next(p for p in disc.manifest["parents"] if p["ref"].startswith("embedding/"))
-    if disc_embedding["hash"] != embedding.hash:
+    disc_embedding = parent(store, disc, "embedding")
+    if disc_embedding.hash != embedding.hash:
         raise LwailError(
-            f"{disc.ref} was warmed up on {disc_embedding['ref']} ({disc.config['embedding_type']}), "
+            f"{disc.ref} was warmed up on {disc_embedding.ref} ({disc.config['embedding_type']}), "
             f"not on {embedding.ref} ({embedding.config['type']}): warm up a discriminator on this embedding"
         )
     critic = critic_config(disc)  # f keeps the loss and learning rate it was warmed up with

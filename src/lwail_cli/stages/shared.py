@@ -125,18 +125,17 @@ def expert_pairs(demos: Artifact, episodes_wanted: int) -> tuple[np.ndarray, np.
 
 # ------------------------------------------------------------------------------ lineage and references
 def parent(store: Store, artifact: Artifact, kind: str) -> Artifact:
-    """The direct parent of ``kind`` an artifact was made from."""
-    for entry in artifact.manifest.get("parents", []):
-        if entry["ref"].split("/")[0] == kind:
-            return store.resolve(entry["ref"], kind)
-    raise LwailError(f"{artifact.ref} records no {kind} parent")
+    """The direct parent of ``kind`` an artifact was made from (refused if it changed since)."""
+    found = store.resolve_parent(artifact, kind)
+    if found is None:
+        raise LwailError(f"{artifact.ref} records no {kind} parent")
+    return found
 
 
 def lineage_demos(store: Store, artifact: Artifact) -> Artifact | None:
     """The demos an artifact was (transitively) made from, if any."""
-    for entry in artifact.manifest.get("parents", []):
-        kind = entry["ref"].split("/")[0]
-        found = store.resolve(entry["ref"], kind)
+    for kind in dict.fromkeys(entry["ref"].split("/")[0] for entry in artifact.manifest.get("parents", [])):
+        found = store.resolve_parent(artifact, kind)
         if kind == "demos":
             return found
         deeper = lineage_demos(store, found)
