@@ -6,6 +6,7 @@ from lwail_cli import config as cfg
 from lwail_cli.stages import collect, demos, embed, evaluate, expert, imitate, warmup
 from lwail_cli.stages.shared import load_policy
 from lwail_cli.data import Episode
+from lwail_cli.errors import LwailError
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features
 from lwail_cli.icvf import Encoder, GoalSampler, pretrain_icvf
 from lwail_cli.imitation import AdversarialReward
@@ -166,3 +167,18 @@ def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
     resumed = imitate.imitate(store, name="killed", resume=True, **stages)
     for name in ("actor.safetensors", "critic.safetensors"):
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
+
+
+def test_resume_refuses_a_run_started_differently(store):
+    config = _expert_config(1200, 500)
+
+    def kill(step, shown):
+        if step == 1000:
+            raise Killed
+
+    with pytest.raises(Killed):
+        expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"), on_progress=kill)
+    with pytest.raises(LwailError, match="made with another seed"):
+        expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=4, name="run", device=torch.device("cpu"), resume=True)
+    with pytest.raises(LwailError, match="made with another env"):
+        expert.train_expert(store, env_id="InvertedDoublePendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"), resume=True)

@@ -121,6 +121,7 @@ class ArtifactWriter:
     def __init__(self, directory: Path):
         self.directory = directory
         self.metrics: dict = {}
+        self.artifact: Artifact | None = None  # the version this writer committed (not the latest: writers race)
 
     def path(self, filename: str) -> Path:
         return self.directory / filename
@@ -273,11 +274,11 @@ class Store:
         writer = ArtifactWriter(directory)
         try:
             yield writer
-            self._commit(writer, kind, name, env, config, seed, parents, extra or {})
+            writer.artifact = self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
         finally:
             shutil.rmtree(directory, ignore_errors=True)
 
-    def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> None:
+    def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> Path:
         file_hashes = {}
         for target in sorted(writer.directory.rglob("*")):
             if target.is_file():
@@ -320,6 +321,7 @@ class Store:
         else:
             raise LwailError(f"gave up writing {kind}/{name}: {COMMIT_TRIES} version numbers were taken by other writers")
         _fsync_dir(parent_dir)
+        return parent_dir / f"v{version}"
 
     # ---------------------------------------------------------------- checkpoints of runs in progress
     def _checkpoint_path(self, kind: str, name: str) -> Path:

@@ -24,9 +24,8 @@ def collect(
     episodes = rollout(env_id, None, [seed], record=True, transitions=config.transitions,
                        on_step=None if on_progress is None else lambda done: on_progress(done, {})).episodes
     name = name or default_name(env_id, "random")
-    _write(store, name, info, episodes, {"source": "uniform-random", "transitions": config.transitions}, seed,
-           "uniform-random", "uniform-random policy, state-only use", {})
-    return store.resolve(f"dataset/{name}", "dataset")
+    return _write(store, name, info, episodes, {"source": "uniform-random", "transitions": config.transitions}, seed,
+                  "uniform-random", "uniform-random policy, state-only use", {})
 
 
 def import_dataset(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
@@ -37,11 +36,10 @@ def import_dataset(store: Store, *, env_id: str, name: str | None = None, minari
         n = episode.length
         episode.actions = episode.actions if episode.actions is not None else np.full((n, info.act_dim), np.nan, np.float32)
         episode.rewards = episode.rewards if episode.rewards is not None else np.full(n, np.nan, np.float32)
-    _write(store, name, info, episodes, {"source": source}, None, source, f"imported from {source}", extra)
-    return store.resolve(f"dataset/{name}", "dataset")
+    return _write(store, name, info, episodes, {"source": source}, None, source, f"imported from {source}", extra)
 
 
-def _write(store, name, info, episodes: list[Episode], config: dict, seed, source: str, description: str, extra: dict) -> None:
+def _write(store, name, info, episodes: list[Episode], config: dict, seed, source: str, description: str, extra: dict) -> Artifact:
     env = make_env(info.id)  # Minari records the spaces from a real env of the registered id
     try:
         with store.create("dataset", name, env=info, config=config, seed=seed) as writer:
@@ -49,6 +47,7 @@ def _write(store, name, info, episodes: list[Episode], config: dict, seed, sourc
             writer.metrics.update(_episode_metrics(episodes) | extra)
     finally:
         env.close()
+    return writer.artifact
 
 
 def _episode_metrics(episodes: list[Episode]) -> dict:

@@ -63,4 +63,4 @@ def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode]
         for key in ("ref_min_score", "ref_max_score"):
             if key in config:
                 writer.metrics[key] = config[key]
-    return store.resolve(f"demos/{name}", "demos")
+    return writer.artifact

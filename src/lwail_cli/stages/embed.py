@@ -45,7 +45,7 @@ def embed(
         record = {"type": "identity", "obs_dim": info.obs_dim, "embedding_dim": info.obs_dim}
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe} | critic_probe(lambda x: x, "") | raw)
-        return store.resolve(f"embedding/{name}", "embedding")
+        return writer.artifact
     result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
                            None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}))
     record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
@@ -54,4 +54,4 @@ def embed(
         result.log.to_csv(writer.path("loss.csv"), index=False)
         writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
         writer.metrics.update(critic_probe(result.encoder, "") | raw)
-    return store.resolve(f"embedding/{name}", "embedding")
+    return writer.artifact

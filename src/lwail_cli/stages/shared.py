@@ -238,7 +238,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
         if run.reference is not None:
             writer.metrics["reference"] = run.reference.source
     store.clear_checkpoint("policy", run.name)
-    return store.resolve(f"policy/{run.name}", "policy")
+    return writer.artifact
 
 
 def run_summary(run: RunState) -> dict:

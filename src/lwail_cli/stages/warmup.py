@@ -53,4 +53,4 @@ def warmup(
             "reward_expert_mean": float(trainer.reward(expert).mean()),
             "reward_random_mean": float(trainer.reward(policy).mean()),
         })
-    return store.resolve(f"discriminator/{name}", "discriminator")
+    return writer.artifact
