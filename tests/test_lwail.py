@@ -182,3 +182,22 @@ def test_resume_refuses_a_run_started_differently(store):
         expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=4, name="run", device=torch.device("cpu"), resume=True)
     with pytest.raises(LwailError, match="made with another env"):
         expert.train_expert(store, env_id="InvertedDoublePendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"), resume=True)
+
+
+def test_a_policy_loads_in_python_and_predicts_like_sb3(store):
+    import gymnasium as gym
+
+    import lwail_cli
+
+    config = _expert_config(400, 400)
+    trained = expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=0, name="p", device=torch.device("cpu"))
+    policy = lwail_cli.load_policy("p", store=store.root)
+    env = gym.make("InvertedPendulum-v5")
+    obs, _ = env.reset(seed=0)  # float64, as gymnasium gives it
+    action, state = policy.predict(obs, deterministic=True)
+    assert action.shape == (1,) and state is None and env.action_space.contains(action.astype(np.float32))
+    batch, _ = policy.predict(np.stack([obs, obs * 0.5]))
+    assert batch.shape == (2, 1) and np.allclose(batch[0], action, atol=1e-6)
+    with torch.no_grad():
+        expected = load_policy(trained)(torch.as_tensor(obs, dtype=torch.float32)).numpy()
+    assert np.allclose(action, expected, atol=1e-6)
