@@ -201,3 +201,13 @@ def test_a_policy_loads_in_python_and_predicts_like_sb3(store):
     with torch.no_grad():
         expected = load_policy(trained)(torch.as_tensor(obs, dtype=torch.float32)).numpy()
     assert np.allclose(action, expected, atol=1e-6)
+
+
+def test_evals_csv_keeps_one_set_of_columns_whether_or_not_normalized(store):
+    import pandas as pd
+
+    policy = expert.train_expert(store, env_id="InvertedPendulum-v5", config=_expert_config(400, 400), seed=0, device=torch.device("cpu"))
+    evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=1))
+    evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=1), normalized=True)
+    rows = pd.read_csv(policy.path / "evals.csv")
+    assert len(rows) == 2 and rows["normalized_score"].isna().tolist() == [True, False]
