@@ -19,6 +19,7 @@ from torch import nn
 
 from .config import ICVFConfig
 from .data import Episode, flatten, transition_pairs
+from .discriminator import transition_features
 from .evaluation import spearman
 from .nets import StackedMLP, soft_update
 
@@ -176,8 +177,7 @@ def probe_critic_needs(encode: Callable[[torch.Tensor], torch.Tensor], expert: l
     def pairs(episodes: list[Episode]) -> torch.Tensor:
         states, next_states = (torch.as_tensor(side) for side in transition_pairs(episodes))
         pick = torch.linspace(0, len(states) - 1, min(max_pairs, len(states))).long()
-        z, z_next = encode(states[pick]), encode(next_states[pick])
-        return torch.cat([z, z_next - z], dim=-1)
+        return transition_features(encode, states[pick], next_states[pick])
 
     def nearest(candidates: torch.Tensor, reference: torch.Tensor) -> np.ndarray:
         return torch.cat([torch.cdist(chunk, reference).amin(1) for chunk in candidates.split(1024)]).numpy()
