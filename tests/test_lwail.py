@@ -1,4 +1,5 @@
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
@@ -182,6 +183,36 @@ def test_resume_refuses_a_run_started_differently(store):
         expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=4, name="run", device=torch.device("cpu"), resume=True)
     with pytest.raises(LwailError, match="made with another env"):
         expert.train_expert(store, env_id="InvertedDoublePendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"), resume=True)
+
+
+def test_resume_may_change_the_budget_only(store):
+    """--resume --steps N: a longer run matches one that had N from the start; N = the checkpoint's step stops there."""
+    device = torch.device("cpu")
+    td3 = _expert_config(1200, 500).td3
+
+    def budget(steps):
+        return cfg.ExpertConfig(td3=td3, train=cfg.TrainConfig(steps=steps, eval_every=1200, eval_episodes=2, checkpoint_every=500))
+
+    def kill(step, shown):
+        if step == 1000:  # the checkpoint at 500 survives
+            raise Killed
+
+    def run(name, steps, **options):
+        return expert.train_expert(store, env_id="Hopper-v5", config=budget(steps), seed=3, name=name, device=device, **options)
+
+    for name in ("extended", "stopped"):
+        with pytest.raises(Killed):
+            run(name, 1200, on_progress=kill)
+    with pytest.raises(LwailError, match="at step 500: --steps must be at least 500"):
+        run("stopped", 400, resume=True)
+
+    straight, extended = run("straight", 1600), run("extended", 1600, resume=True)
+    assert straight.file("final_actor.safetensors").read_bytes() == extended.file("final_actor.safetensors").read_bytes()
+    assert pd.read_csv(extended.file("training.csv"))["step"].tolist() == [1200, 1600]
+
+    stopped = run("stopped", 500, resume=True)
+    assert stopped.config["train"]["steps"] == 500 and stopped.metrics["env_steps"] == 500
+    assert pd.read_csv(stopped.file("training.csv"))["step"].tolist() == [500]  # evaluated where it stopped
 
 
 def test_a_policy_loads_in_python_and_predicts_like_sb3(store):

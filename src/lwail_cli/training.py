@@ -153,6 +153,20 @@ def train_td3(
     low, high = env.action_space.low, env.action_space.high
     noise_std = td3.exploration_noise * (high - low) / 2
     started = time.perf_counter() - run.wall_time
+
+    def evaluate_now() -> None:
+        run.wall_time = time.perf_counter() - started
+        row = {"step": run.step, "wall_time": run.wall_time}
+        row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference, reward_model))
+        if run.best_actor is None or row["return_mean"] > run.best_return:
+            run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
+            run.best_step, run.best_return = run.step, row["return_mean"]
+        run.history.append(row)
+        if on_evaluation is not None:
+            on_evaluation(run)
+        if on_progress is not None:
+            on_progress(run.step, run)
+
     try:
         while run.step < train.steps:
             if run.step < td3.random_steps:
@@ -173,17 +187,7 @@ def train_td3(
             if run.step >= td3.learning_starts:
                 agent.update(buffer.sample(td3.batch_size))
             if run.step % train.eval_every == 0 or run.step == train.steps:
-                run.wall_time = time.perf_counter() - started
-                row = {"step": run.step, "wall_time": run.wall_time}
-                row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference, reward_model))
-                if run.best_actor is None or row["return_mean"] > run.best_return:
-                    run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
-                    run.best_step, run.best_return = run.step, row["return_mean"]
-                run.history.append(row)
-                if on_evaluation is not None:
-                    on_evaluation(run)
-                if on_progress is not None:
-                    on_progress(run.step, run)
+                evaluate_now()
             elif on_progress is not None and run.step % progress_every == 0:
                 on_progress(run.step, run)
             if on_checkpoint is not None and run.step % train.checkpoint_every == 0 and run.step < train.steps:
@@ -201,6 +205,8 @@ def train_td3(
                         "obs": torch.from_numpy(np.asarray(obs)),
                     }
                 )
+        if not run.history or run.history[-1]["step"] != run.step:  # resumed with --steps at its checkpoint
+            evaluate_now()
     finally:
         env.close()
     run.wall_time = time.perf_counter() - started

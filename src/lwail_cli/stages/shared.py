@@ -177,17 +177,30 @@ class TrainingRun:
 
 
 def prepare_run(store: Store, name: str, resume: bool, record: dict) -> TrainingRun:
-    """Checkpoints carry what made the run (config, seed, env, parents); a resume under anything else is refused."""
+    """Checkpoints carry what made the run (config, seed, env, parents); a resume under anything else is refused.
+
+    The one thing a resume may change is the budget, ``train.steps``: a run continues to a longer one, or stops
+    where it stands with ``--steps`` set to the checkpoint's step; the steps before are the same either way."""
     state = store.load_checkpoint("policy", name) if resume else None
     if state is not None:
         recorded = state.get("record", {})
-        changed = [key for key in record if recorded.get(key) != record[key]]
+        changed = [key for key in record if _without_budget(recorded.get(key)) != _without_budget(record[key])]
         if changed:
             raise LwailError(
                 f"the checkpoint of policy/{name} was made with another {' and '.join(changed)}; "
-                "rerun with the same options, or without --resume"
+                "rerun with the same options (--steps may differ), or without --resume"
             )
+        reached, budget = state["run"]["step"], record["config"]["train"]["steps"]
+        if budget < reached:
+            raise LwailError(f"the checkpoint of policy/{name} is at step {reached}: --steps must be at least {reached}")
     return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint("policy", name, {**checkpoint, "record": record}))
+
+
+def _without_budget(value):
+    """A recorded config with ``train.steps`` left out (anything else unchanged)."""
+    if not isinstance(value, dict) or "train" not in value:
+        return value
+    return {**value, "train": {k: v for k, v in value["train"].items() if k != "steps"}}
 
 
 @dataclass(frozen=True)
