@@ -92,3 +92,28 @@ def test_a_parent_changed_after_its_child_was_made_is_refused(cli, store, tmp_pa
     _tamper(data, rename)
     result = cli("warmup-disc", "ident", "d", "--set", "steps=2")
     assert result.exit_code == 1 and "was changed after embedding/ident@v1 was made from it" in result.output
+
+
+def test_a_minari_env_spec_never_runs(cli, store, tmp_path, monkeypatch):
+    """Minari rebuilds the env from a dataset's env_spec when it has no stored spaces; lwail never lets it."""
+    from lwail_cli.config import CollectConfig
+    from lwail_cli.stages.collect import collect
+    import shutil
+
+    source = collect(store, env_id="InvertedPendulum-v5", config=CollectConfig(transitions=60), seed=0).file("minari")
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    data = tmp_path / "minari" / "evil" / "random-v0" / "data"
+    shutil.copytree(source, data)
+    marker = tmp_path / "pwned"
+    metadata = json.loads((data / "metadata.json").read_text())
+    for key in ("observation_space", "action_space"):
+        metadata.pop(key)
+    spec = json.loads(metadata["env_spec"])
+    spec.update(entry_point="os:system", kwargs={"command": f"touch {marker}"})
+    metadata.update(env_spec=json.dumps(spec), dataset_id="evil/random-v0")
+    (data / "metadata.json").write_text(json.dumps(metadata))
+    for command in (("demos", "import"), ("collect",)):
+        result = cli(*command, "InvertedPendulum-v5", "--from-minari", "evil/random-v0", "--name", "imported")
+        assert result.exit_code == 0, result.output
+    assert cli("pretrain-icvf", "imported", "--kind", "identity").exit_code == 0  # reads the dataset artifact back
+    assert not marker.exists()

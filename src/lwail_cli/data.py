@@ -7,6 +7,7 @@ later stages bootstrap through a truncation but not through a termination.
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -128,32 +129,50 @@ def write_minari(episodes: list[Episode], directory: Path, dataset_id: str, env:
     storage.update_episodes(buffers)
 
 
-def read_minari(dataset) -> list[Episode]:
-    """Episodes of a ``minari.MinariDataset`` (actions and rewards are kept but unused later)."""
-    episodes = []
-    for episode in dataset.iterate_episodes():
-        observations = episode.observations
-        if isinstance(observations, dict):
-            raise LwailError(f"{dataset.spec.dataset_id} has dict observations; lwail needs flat Box observations")
-        episodes.append(
-            Episode(
-                observations=np.asarray(observations, dtype=np.float32),
-                actions=np.asarray(episode.actions, dtype=np.float32),
-                rewards=np.asarray(episode.rewards, dtype=np.float32),
-                terminated=bool(np.asarray(episode.terminations)[-1]) if len(episode.terminations) else False,
-            )
-        )
-    return episodes
+def read_minari_directory(directory: Path, source: str) -> tuple[list[Episode], dict]:
+    """Episodes and metadata of a dataset in Minari's hdf5 format, read with h5py alone.
+
+    ``minari.MinariDataset`` is never opened: for a dataset without stored spaces it rebuilds the env from the
+    metadata's ``env_spec`` (``gym.make`` of any entry point), so a shared dataset could run code."""
+    import h5py
+
+    try:
+        metadata = json.loads((directory / "metadata.json").read_text())
+    except (OSError, ValueError) as exc:
+        raise LwailError(f"{source} has no readable metadata.json: {exc}") from None
+    if not isinstance(metadata, dict) or metadata.get("data_format", "hdf5") != "hdf5":
+        raise LwailError(f"{source} is not a Minari dataset in hdf5 format")
+    try:
+        with h5py.File(directory / "main_data.hdf5", "r") as data:
+            names = sorted((key for key in data if key.startswith("episode_")), key=lambda key: int(key[len("episode_"):]))
+            episodes = [_minari_episode(data[key], f"{source} {key}") for key in names]
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise LwailError(f"{source} has a damaged main_data.hdf5 ({type(exc).__name__}: {exc})") from None
+    return episodes, metadata
 
 
-def load_minari_directory(directory: Path) -> list[Episode]:
-    import minari
+def _minari_episode(group, source: str) -> Episode:
+    import h5py
 
-    return read_minari(minari.MinariDataset(directory))
+    if not isinstance(group.get("observations"), h5py.Dataset):
+        raise LwailError(f"{source} has no flat observations (dict observations?); lwail needs flat Box observations")
+    observations = np.asarray(group["observations"][()])
+    if observations.ndim != 2 or not np.issubdtype(observations.dtype, np.number) or np.iscomplexobj(observations):
+        raise LwailError(f"{source} has observations of shape {observations.shape} and dtype {observations.dtype}; expected (T+1, d) real numbers")
+    steps = observations.shape[0] - 1
+    arrays = {key: np.asarray(group[key][()]) for key in ("actions", "rewards", "terminations")}
+    if any(len(array) != steps for array in arrays.values()):
+        raise LwailError(f"{source} has {steps + 1} observations but not {steps} actions, rewards and terminations")
+    return Episode(
+        observations=observations.astype(np.float32),
+        actions=arrays["actions"].astype(np.float32),
+        rewards=arrays["rewards"].astype(np.float32),
+        terminated=bool(arrays["terminations"][-1]) if steps else False,
+    )
 
 
-def load_local_minari(dataset_id: str):
-    """A dataset from the local Minari store; never downloads, never reads outside the store."""
+def load_local_minari(dataset_id: str) -> tuple[list[Episode], dict]:
+    """A dataset from the local Minari store (episodes, metadata); never downloads, never reads outside the store."""
     from minari.storage import get_dataset_path
 
     if Path(dataset_id).is_absolute() or ".." in Path(dataset_id).parts:
@@ -166,9 +185,7 @@ def load_local_minari(dataset_id: str):
             f"Minari dataset {dataset_id!r} is not in the local Minari store ({root}); "
             "lwail never downloads: fetch it with `minari download` on a connected machine, or pass --from-file"
         )
-    import minari
-
-    return minari.MinariDataset(path / "data")
+    return read_minari_directory(path / "data", f"Minari dataset {dataset_id!r}")
 
 
 # ------------------------------------------------------------------------------ .npz files

@@ -15,7 +15,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from .. import config as cfg
-from ..data import Episode, load_local_minari, load_minari_directory, read_minari, read_npz, transition_pairs, validate_episodes
+from ..data import Episode, load_local_minari, read_minari_directory, read_npz, transition_pairs, validate_episodes
 from ..discriminator import Critic, transition_features
 from ..envs import EnvInfo, describe_env
 from ..errors import LwailError
@@ -67,7 +67,7 @@ def load_weights(module: torch.nn.Module, artifact: Artifact, filename: str) -> 
 
 # ------------------------------------------------------------------------------ artifacts into models and arrays
 def load_dataset(artifact: Artifact) -> list[Episode]:
-    return load_minari_directory(artifact.file("minari"))
+    return read_minari_directory(artifact.file("minari"), artifact.ref)[0]
 
 
 def load_demos(artifact: Artifact) -> tuple[list[Episode], np.ndarray]:
@@ -288,11 +288,13 @@ def read_external(info: EnvInfo, minari_id: str | None, npz: Path | None) -> tup
         raise LwailError("give exactly one of --from-minari DATASET_ID or --from-file FILE.npz")
     extra: dict = {}
     if minari_id is not None:
-        dataset = load_local_minari(minari_id)
-        episodes, source = read_minari(dataset), f"minari:{minari_id}"
+        episodes, metadata = load_local_minari(minari_id)
+        source = f"minari:{minari_id}"
         for key in ("ref_min_score", "ref_max_score"):
-            value = dataset.storage.metadata.get(key)
+            value = metadata.get(key)
             if value is not None:
+                if not isinstance(value, (int, float)) or not np.isfinite(value):
+                    raise LwailError(f"{source} has {key}={value!r}; expected a finite number")
                 extra[key] = float(value)
     else:
         if not npz.is_file():
