@@ -49,6 +49,25 @@ def test_demos_with_the_wrong_observation_shape_are_refused(cli, store, seeded, 
     assert_refused(result, store, seeded, "observations have 4 dims")
 
 
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda a: a.update(observations=a["observations"] * (1 + 1j)), "must hold real numbers"),
+        (lambda a: a.update(episode_ends=np.flatnonzero(a["episode_ends"])), "one flag (bool or 0/1) per observation"),
+        (lambda a: a.update(episode_ends=a["episode_ends"] * 7), "one flag (bool or 0/1) per observation"),
+        (lambda a: a.update(terminations=np.zeros(5, dtype=bool)), "'terminations' must be one flag"),
+        (lambda a: a.update(returns=np.array([1.0, np.inf])), "'returns' must hold one finite number per episode"),
+        (lambda a: a.update(returns=np.array([1.0, 2.0, 3.0])), "'returns' must hold one finite number per episode"),
+    ],
+)
+def test_malformed_npz_arrays_are_refused_not_guessed(cli, store, seeded, tmp_path, change, message):
+    path = write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4, returns=[1.0, 2.0])
+    arrays = dict(np.load(path))
+    change(arrays)
+    np.savez(path, **arrays)
+    assert_refused(cli("demos", "import", "InvertedPendulum-v5", "--from-file", path), store, seeded, message)
+
+
 def test_nan_and_empty_data_files_are_refused(cli, store, seeded, tmp_path):
     path = write_states_npz(tmp_path / "nan.npz", episodes=2, obs_dim=4)
     arrays = dict(np.load(path))

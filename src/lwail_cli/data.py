@@ -201,24 +201,37 @@ def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     for key in ("observations", "episode_ends"):
         if key not in arrays:
             raise LwailError(f"{path} has no {key!r} array (it has: {', '.join(arrays) or 'nothing'})")
+    if not _is_real(arrays["observations"]):
+        raise LwailError(f"{path}: 'observations' must hold real numbers, not {arrays['observations'].dtype}")
     observations = np.asarray(arrays["observations"], dtype=np.float32)
-    ends = np.asarray(arrays["episode_ends"]).astype(bool)
     if observations.ndim != 2 or len(observations) == 0:
         raise LwailError(f"{path}: 'observations' must be a non-empty (N, obs_dim) array, got {observations.shape}")
-    if ends.shape != (len(observations),):
-        raise LwailError(f"{path}: 'episode_ends' must have one flag per observation ({len(observations)})")
+    ends = _flags(arrays["episode_ends"], "episode_ends", len(observations), path)
     if not ends[-1]:
         raise LwailError(f"{path}: 'episode_ends' must mark the last observation as an episode end")
-    terminations = np.asarray(arrays.get("terminations", np.zeros_like(ends))).astype(bool)
+    terminations = _flags(arrays["terminations"], "terminations", len(observations), path) if "terminations" in arrays else np.zeros_like(ends)
     cut_points = np.flatnonzero(ends) + 1
     episodes = [
         Episode(observations=chunk, terminated=bool(term[-1]))
         for chunk, term in zip(np.split(observations, cut_points[:-1]), np.split(terminations, cut_points[:-1]))
     ]
-    returns = np.asarray(arrays["returns"], dtype=np.float64) if "returns" in arrays else None
-    if returns is not None and len(returns) != len(episodes):
-        raise LwailError(f"{path}: {len(returns)} returns for {len(episodes)} episodes")
+    returns = arrays.get("returns")
+    if returns is not None:
+        if not _is_real(returns) or returns.shape != (len(episodes),) or not np.all(np.isfinite(returns)):
+            raise LwailError(f"{path}: 'returns' must hold one finite number per episode ({len(episodes)}), got {returns.dtype} {returns.shape}")
+        returns = returns.astype(np.float64)
     return episodes, returns
+
+
+def _is_real(array: np.ndarray) -> bool:
+    return np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
+
+
+def _flags(array: np.ndarray, key: str, count: int, path: Path) -> np.ndarray:
+    """One boolean flag per observation (bool, or 0/1): indices or any other encoding is refused, not guessed."""
+    if array.shape != (count,) or not (array.dtype == bool or (_is_real(array) and np.isin(array, (0, 1)).all())):
+        raise LwailError(f"{path}: {key!r} must be one flag (bool or 0/1) per observation ({count}), got {array.dtype} {array.shape}")
+    return array.astype(bool)
 
 
 def write_npz(path: Path, episodes: list[Episode], returns: np.ndarray | None = None) -> None:
