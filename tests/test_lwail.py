@@ -215,6 +215,35 @@ def test_resume_may_change_the_budget_only(store):
     assert pd.read_csv(stopped.file("training.csv"))["step"].tolist() == [500]  # evaluated where it stopped
 
 
+def test_a_killed_run_is_neither_overwritten_nor_run_twice(store):
+    import socket
+    import subprocess
+
+    config = _expert_config(1200, 500)
+    train = dict(env_id="InvertedPendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"))
+
+    def kill(step, shown):
+        if step == 1000:
+            raise Killed
+
+    with pytest.raises(Killed):
+        expert.train_expert(store, on_progress=kill, **train)
+    checkpoint = store.root / ".runs" / "policy" / "run" / "checkpoint.pt"
+    saved = checkpoint.read_bytes()
+    with pytest.raises(LwailError, match="left a checkpoint: add --resume to continue it"):
+        expert.train_expert(store, **train)
+    assert checkpoint.read_bytes() == saved
+    lock = checkpoint.parent / "lock"
+    with subprocess.Popen(["sleep", "30"]) as other:  # another live process holds the run
+        lock.write_text(f"{socket.gethostname()} {other.pid}")
+        with pytest.raises(LwailError, match=f"being trained by process {other.pid}"):
+            expert.train_expert(store, resume=True, **train)
+        other.kill()
+    other.wait()
+    assert expert.train_expert(store, resume=True, **train).metrics["env_steps"] == 1200  # a dead owner's lock is taken over
+    assert not checkpoint.parent.exists()
+
+
 def test_a_policy_loads_in_python_and_predicts_like_sb3(store):
     import gymnasium as gym
 

@@ -15,6 +15,7 @@ import json
 import os
 import re
 import shutil
+import socket
 import tempfile
 import time
 from dataclasses import dataclass
@@ -328,6 +329,41 @@ class Store:
         check_name(name)
         return self.root / ".runs" / kind / name / "checkpoint.pt"
 
+    @contextlib.contextmanager
+    def claim_run(self, kind: str, name: str, *, resume: bool) -> Iterator[None]:
+        """One run per name at a time, and a fresh run never overwrites the checkpoint a killed run left."""
+        folder = self._checkpoint_path(kind, name).parent
+        folder.mkdir(parents=True, exist_ok=True)
+        lock = folder / "lock"
+        owner = f"{socket.gethostname()} {os.getpid()}"
+        try:
+            self._take_lock(lock, owner, f"{kind}/{name}")
+            if not resume and (folder / "checkpoint.pt").exists():
+                raise LwailError(
+                    f"a killed run of {kind}/{name} left a checkpoint: add --resume to continue it, "
+                    f"choose another --name, or delete {folder} to start over"
+                )
+            yield
+        finally:
+            if lock.is_file() and lock.read_text() == owner:
+                lock.unlink()
+
+    @staticmethod
+    def _take_lock(lock: Path, owner: str, what: str) -> None:
+        for _ in range(2):
+            try:
+                with open(lock, "x") as handle:
+                    handle.write(owner)
+                return
+            except FileExistsError:
+                host, _, pid = lock.read_text().partition(" ")
+                if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
+                    lock.unlink(missing_ok=True)  # left by a killed process: take it over
+                    continue
+                raise LwailError(f"{what} is being trained by process {pid or '?'} on {host or '?'}; wait for it, or choose "
+                                 f"another --name (if that process is gone, delete {lock})") from None
+        raise LwailError(f"{what}: another process took the run's lock {lock} at the same time")
+
     def save_checkpoint(self, kind: str, name: str, state: dict) -> Path:
         """Replace the run's checkpoint atomically (a kill mid-write keeps the previous one)."""
         import torch
@@ -379,6 +415,16 @@ class Store:
 def check_name(name: str) -> None:
     if not _NAME.fullmatch(name) or len(name) > MAX_NAME:
         raise LwailError(f"artifact name {name!r} must be 1-{MAX_NAME} letters, digits, '.', '_' or '-', starting with a letter or digit")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
 
 
 def _fsync_dir(path: Path) -> None:

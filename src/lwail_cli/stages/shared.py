@@ -224,33 +224,35 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
     """Seed, build, train (resumably) and write a policy artifact: the skeleton of `expert train` and `imitate`."""
     info = describe_env(run.env_id)
     record = cfg.to_dict(run.config) if run.recorded is None else run.recorded
-    checkpoints = prepare_run(store, run.name, resume, {
-        "config": record, "seed": run.seed, "env": run.env_id, "parents": [p.hash for p in run.parents]
-    })
-    def log_curve(history: list[dict]) -> None:
-        store.write_run_log("policy", run.name, run.curve_file, history)
+    with store.claim_run("policy", run.name, resume=resume):
+        checkpoints = prepare_run(store, run.name, resume, {
+            "config": record, "seed": run.seed, "env": run.env_id, "parents": [p.hash for p in run.parents]
+        })
 
-    if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
-        log_curve(checkpoints.resume["run"]["history"])
-    torch.manual_seed(run.seed)
-    capacity = min(run.config.td3.buffer_size, run.config.train.steps)
-    reward_model = run.reward_model(capacity) if run.reward_model is not None else None
-    agent = TD3(info, run.config.td3, device)
-    buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
-    result = train_td3(
-        run.env_id, agent, buffer, run.config.td3, run.config.train, run.seed, reward_model=reward_model,
-        reference=run.reference, resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint,
-        on_progress=None if on_progress is None else lambda step, state: on_progress(step, run_summary(state)),
-        on_evaluation=lambda state: log_curve(state.history),
-    )
-    extra = {"trained_on": run.trained_on}
-    with store.create("policy", run.name, env=info, config=record, seed=run.seed, parents=run.parents, extra=extra) as writer:
-        write_history(writer.path(run.curve_file), result)
-        run.write(writer, result, agent, reward_model)
-        writer.metrics.update(final_metrics(result))
-        if run.reference is not None:
-            writer.metrics["reference"] = run.reference.source
-    store.clear_checkpoint("policy", run.name)
+        def log_curve(history: list[dict]) -> None:
+            store.write_run_log("policy", run.name, run.curve_file, history)
+
+        if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
+            log_curve(checkpoints.resume["run"]["history"])
+        torch.manual_seed(run.seed)
+        capacity = min(run.config.td3.buffer_size, run.config.train.steps)
+        reward_model = run.reward_model(capacity) if run.reward_model is not None else None
+        agent = TD3(info, run.config.td3, device)
+        buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
+        result = train_td3(
+            run.env_id, agent, buffer, run.config.td3, run.config.train, run.seed, reward_model=reward_model,
+            reference=run.reference, resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint,
+            on_progress=None if on_progress is None else lambda step, state: on_progress(step, run_summary(state)),
+            on_evaluation=lambda state: log_curve(state.history),
+        )
+        extra = {"trained_on": run.trained_on}
+        with store.create("policy", run.name, env=info, config=record, seed=run.seed, parents=run.parents, extra=extra) as writer:
+            write_history(writer.path(run.curve_file), result)
+            run.write(writer, result, agent, reward_model)
+            writer.metrics.update(final_metrics(result))
+            if run.reference is not None:
+                writer.metrics["reference"] = run.reference.source
+        store.clear_checkpoint("policy", run.name)
     return writer.artifact
 
 
