@@ -27,7 +27,7 @@ from .envs import EnvInfo
 from .errors import LwailError
 
 SCHEMA_VERSION = 2  # 2: the manifest itself is hashed, and children record their parents' manifest hashes
-KINDS = ("dataset", "demos", "embedding", "discriminator", "policy")
+KINDS = ("dataset", "demos", "embedding", "discriminator", "policy", "report")  # a report spans envs: no env
 MANIFEST = "manifest.json"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # used with fullmatch: a trailing newline is no name
 MAX_NAME = 100
@@ -89,6 +89,8 @@ class Artifact:
 
     @property
     def env(self) -> EnvInfo:
+        if self.manifest["env"] is None:
+            raise LwailError(f"{self.ref} belongs to no single environment")
         return EnvInfo.from_dict(self.manifest["env"])
 
     @property
@@ -259,7 +261,7 @@ class Store:
         kind: str,
         name: str,
         *,
-        env: EnvInfo,
+        env: EnvInfo | None,
         config: dict,
         seed: int | None,
         parents: list[Artifact] = (),
@@ -291,7 +293,7 @@ class Store:
             "schema_version": SCHEMA_VERSION,
             "name": name,
             "version": None,
-            "env": env.to_dict(),
+            "env": None if env is None else env.to_dict(),
             "config": config,
             "seed": seed,
             "parents": [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents],
@@ -299,7 +301,7 @@ class Store:
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "metrics": writer.metrics,
             "files": file_hashes,
-            "hash": _content_hash(file_hashes, env.to_dict(), config),
+            "hash": _content_hash(file_hashes, None if env is None else env.to_dict(), config),
             **extra,
         }
         parent_dir = self.root / kind / name
@@ -407,6 +409,33 @@ class Store:
             writer.writeheader()
             writer.writerows(rows)
         os.replace(partial, path)
+
+    def has_checkpoint(self, kind: str, name: str) -> bool:
+        return self._checkpoint_path(kind, name).is_file()
+
+    # ---------------------------------------------------------------- a sweep's ledger of finished stages
+    def _ledger_entry(self, sweep: str, key: str) -> Path:
+        check_name(sweep)
+        if not re.fullmatch(r"[a-z0-9-]{1,100}", key):
+            raise ValueError(f"bad ledger key {key!r}")
+        return self.root / ".runs" / "sweep" / sweep / f"{key}.ref"
+
+    def finished_stage(self, sweep: str, key: str, kind: str) -> Artifact | None:
+        """The artifact a sweep recorded for a stage fingerprint, if it is still there and intact."""
+        entry = self._ledger_entry(sweep, key)
+        if not entry.is_file():
+            return None
+        try:
+            return self.resolve(entry.read_text().strip(), kind)
+        except LwailError:  # removed or damaged since: the stage runs again
+            return None
+
+    def record_finished_stage(self, sweep: str, key: str, artifact: Artifact) -> None:
+        entry = self._ledger_entry(sweep, key)
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        partial = entry.with_suffix(".partial")
+        partial.write_text(artifact.ref)
+        os.replace(partial, entry)
 
     def clear_checkpoint(self, kind: str, name: str) -> None:
         shutil.rmtree(self._checkpoint_path(kind, name).parent, ignore_errors=True)

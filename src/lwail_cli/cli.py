@@ -25,6 +25,8 @@ from .stages import evaluate as evaluate_stage
 from .stages import expert as expert_stage
 from .stages import imitate as imitate_stage
 from .stages import quickstart as quickstart_stage
+from .stages import report as report_stage
+from .stages import sweep as sweep_stage
 from .stages import warmup as warmup_stage
 from .stages.shared import resolve_device
 
@@ -328,6 +330,42 @@ def quickstart(
     _say_evaluation(result)
 
 
+@command(app, "sweep")
+def sweep(
+    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings and [set] overrides per stage; see plans/."),
+    address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
+) -> None:
+    """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
+    plan = sweep_stage.read_plan(plan_file)
+    s = store()
+    typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs into store {s.root.resolve()}")
+
+    def show(status: dict[str, str]) -> None:
+        width = max(map(len, status))
+        typer.echo("\n".join(f"  {label.ljust(width)}  {line}" for label, line in status.items()) + "\n")
+
+    failures = sweep_stage.run_sweep(s, plan=plan, address=address, on_status=show)
+    _say_report(report_stage.report(s, plan=plan))
+    if failures:
+        raise LwailError(f"{len(failures)} of {len(plan.runs)} runs failed ({'; '.join(failures)}); rerun the sweep to retry them")
+
+
+@command(app, "report")
+def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report.")) -> None:
+    """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
+    s = store()
+    if Path(sweep_ref).is_file():
+        plan = sweep_stage.read_plan(Path(sweep_ref))
+    else:
+        plan = sweep_stage.plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")
+    _say_report(report_stage.report(s, plan=plan))
+
+
+def _say_report(artifact) -> None:
+    say_written(artifact)
+    typer.echo(artifact.file("summary.md").read_text())
+
+
 # ------------------------------------------------------------------------------ the store
 @command(app, "ls")
 def list_artifacts() -> None:
@@ -344,7 +382,7 @@ def list_artifacts() -> None:
             continue
         metrics = manifest.get("metrics", {})
         key = next((k for k in ("normalized_score", "return_mean", "mean_return", "probe_spearman", "transitions") if k in metrics), None)
-        table.append((kind, name, ",".join(f"v{v}" for v in versions), manifest["env"]["id"], manifest["created"][:19], f"{key}={_fmt(metrics[key])}" if key else ""))
+        table.append((kind, name, ",".join(f"v{v}" for v in versions), (manifest["env"] or {"id": "-"})["id"], manifest["created"][:19], f"{key}={_fmt(metrics[key])}" if key else ""))
     widths = [max(len(row[i]) for row in table) for i in range(len(header))]
     for row in table:
         typer.echo("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())

@@ -54,3 +54,23 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     fig.tight_layout()
     fig.savefig(scatter_path, dpi=100)
     plt.close(fig)
+
+
+def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
+    """Mean ± std over seeds of the normalized score against env steps, one band per embedding kind."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for kind, group in curves.groupby("kind"):
+        stats = group.groupby("step")["normalized_score"].agg(["mean", "std", "count"]).fillna({"std": 0.0})
+        ax.plot(stats.index, stats["mean"], label=f"{kind} (n={int(stats['count'].max())})")
+        ax.fill_between(stats.index, stats["mean"] - stats["std"], stats["mean"] + stats["std"], alpha=0.25)
+    ax.set(xlabel="environment steps", ylabel="normalized score", title=title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

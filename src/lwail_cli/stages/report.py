@@ -1,0 +1,89 @@
+"""Stage: a sweep's report — normalized score per task × embedding kind as mean ± std over seeds, with curves.
+
+Rebuilt from the store alone (`lwail report`): each run's policy artifact holds its learning curve, its
+final evaluation (``evals.csv``), env steps and wall time."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import pandas as pd
+
+from ..errors import LwailError
+from .plots import plot_bands
+
+if TYPE_CHECKING:
+    from ..artifacts import Artifact, Store
+    from .sweep import SweepPlan
+
+LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
+FIGURES = ("final", "best", "last_10pct_mean")
+
+
+def report(store: Store, *, plan: SweepPlan) -> Artifact:
+    rows, curves, policies = [], [], []
+    for run in plan.runs:
+        try:
+            policy = store.resolve(plan.names(run)["policy"], "policy")
+        except LwailError:
+            continue  # not finished (yet): the report covers the runs that are
+        curve = pd.read_csv(policy.file("learning_curve.csv"))
+        if "normalized_score" not in curve:
+            raise LwailError(f"{policy.ref} has no normalized scores in its learning curve")
+        steps = policy.metrics["env_steps"]
+        final = _final_evaluation(policy)
+        rows.append({
+            "task": run.task, "kind": run.kind, "seed": run.seed, "policy": policy.ref,
+            "final": final if final is not None else curve["normalized_score"].iloc[-1],
+            "best": curve["normalized_score"].max(),
+            "last_10pct_mean": curve.loc[curve["step"] > (1 - LAST_FRACTION) * steps, "normalized_score"].mean(),
+            "env_steps": steps, "wall_time_s": policy.metrics["wall_time_s"],
+            "env_steps_per_s": steps / policy.metrics["wall_time_s"],
+        })
+        curves.append(curve[["step", "normalized_score"]].assign(task=run.task, kind=run.kind, seed=run.seed))
+        policies.append(policy)
+    if not rows:
+        raise LwailError(f"no run of sweep {plan.name} has finished yet")
+    runs = pd.DataFrame(rows)
+    summary = summarize(runs)
+    with store.create("report", plan.name, env=None, config=plan.to_dict(), seed=None, parents=policies) as writer:
+        runs.to_csv(writer.path("runs.csv"), index=False)
+        summary.to_csv(writer.path("summary.csv"), index=False)
+        writer.path("summary.md").write_text(markdown(summary))
+        all_curves = pd.concat(curves)
+        for task, group in all_curves.groupby("task"):
+            plot_bands(group, writer.path(f"curves-{task}.png"), f"{task}: normalized score, mean ± std over seeds")
+        writer.metrics.update({"runs": len(runs), "runs_planned": len(plan.runs)})
+    return writer.artifact
+
+
+def _final_evaluation(policy: Artifact) -> float | None:
+    if not policy.file("evals.csv").is_file():
+        return None
+    evals = pd.read_csv(policy.file("evals.csv"))
+    scores = pd.to_numeric(evals["normalized_score"], errors="coerce").dropna()
+    return float(scores.iloc[-1]) if len(scores) else None
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per task × kind: mean and std over seeds of each figure, the seed count, and the mean wall time and speed."""
+    grouped = runs.groupby(["task", "kind"])
+    summary = grouped[list(FIGURES)].agg(["mean", "std"])
+    summary.columns = [f"{figure}_{stat}" for figure, stat in summary.columns]
+    summary["seeds"] = grouped["seed"].count()
+    summary["wall_time_s"] = grouped["wall_time_s"].mean()
+    summary["env_steps_per_s"] = grouped["env_steps_per_s"].mean()
+    return summary.reset_index()
+
+
+def markdown(summary: pd.DataFrame) -> str:
+    lines = ["| task | embedding | final | best | mean, last 10% of steps | seeds | wall time | env-steps/s |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for row in summary.itertuples(index=False):
+        cells = [f"{getattr(row, f + '_mean'):.1f} ± {_std(getattr(row, f + '_std'))}" for f in FIGURES]
+        lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+def _std(value: float) -> str:
+    return "—" if pd.isna(value) else f"{value:.1f}"

@@ -1,0 +1,231 @@
+"""`lwail sweep`: tasks × seeds × embedding kinds, each run the usual chain, as Ray tasks of one CPU each.
+
+A plan (TOML) names the grid and each stage's ``--set`` overrides. Stages that several runs share are made once:
+a task's bundled demos, and the random data set I of a task and seed (read by every embedding kind of that
+seed). Every artifact is named after the sweep, and each finished stage is recorded in the store's ledger under a
+fingerprint of its stage, name, config, seed and parents: a restarted sweep skips what is done (its artifact
+still there and intact) and resumes a killed ``imitate`` from its checkpoint.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable
+
+from .. import config as cfg
+from ..artifacts import Store, check_name
+from ..errors import LwailError
+from .collect import collect
+from .curve import read_curve
+from .demos import bundled_demos_path, import_bundled_demos
+from .embed import embed
+from .evaluate import evaluate
+from .imitate import imitate
+from .warmup import warmup
+
+if TYPE_CHECKING:
+    from ..artifacts import Artifact
+
+PLAN_STAGES = ("collect", "pretrain-icvf", "warmup-disc", "imitate", "eval")
+EMBEDDINGS = ("icvf", "identity")
+PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set"}
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    task: str
+    seed: int
+    kind: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.task} seed {self.seed} {self.kind}"
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    name: str
+    tasks: tuple[str, ...]
+    seeds: tuple[int, ...]
+    kinds: tuple[str, ...]
+    overrides: dict  # stage -> tuple of section.field=value assignments
+
+    @property
+    def runs(self) -> list[SweepRun]:
+        return [SweepRun(task, seed, kind) for task in self.tasks for seed in self.seeds for kind in self.kinds]
+
+    def config(self, stage: str, *fixed: str):
+        """The stage's validated config: defaults, then the plan's overrides, then what the grid fixes."""
+        return cfg.with_overrides(cfg.STAGES[stage](), [*self.overrides.get(stage, ()), *fixed])
+
+    def names(self, run: SweepRun) -> dict[str, str]:
+        base = f"{self.name}-{run.task.lower()}-s{run.seed}"
+        return {"demos": f"{self.name}-{run.task.lower()}-demos", "data": f"{base}-data", "embedding": f"{base}-{run.kind}",
+                "disc": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds),
+                "set": {stage: list(assignments) for stage, assignments in self.overrides.items()}}
+
+
+def read_plan(path: Path) -> SweepPlan:
+    try:
+        raw = tomllib.loads(Path(path).read_text())
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LwailError(f"cannot read the plan {path}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise LwailError(f"{path} is not valid TOML: {exc}") from None
+    return plan_from_dict(raw, str(path))
+
+
+def plan_from_dict(raw: dict, source: str) -> SweepPlan:
+    """A plan, checked whole (names, grid, every stage's config) before anything runs."""
+    unknown = set(raw) - PLAN_KEYS
+    if unknown:
+        raise LwailError(f"{source}: unknown keys {sorted(unknown)}; a plan has {sorted(PLAN_KEYS)}")
+    name, tasks, seeds, kinds = raw.get("name"), raw.get("tasks"), raw.get("seeds"), raw.get("embeddings", ["icvf", "identity"])
+    if not isinstance(name, str):
+        raise LwailError(f"{source}: 'name' must be a string naming the sweep")
+    check_name(name)
+    if not _unique_list(tasks, str):
+        raise LwailError(f"{source}: 'tasks' must be a non-empty list of distinct env ids")
+    if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
+        raise LwailError(f"{source}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
+    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS):
+        raise LwailError(f"{source}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)}")
+    overrides = raw.get("set", {})
+    if not isinstance(overrides, dict) or not set(overrides) <= set(PLAN_STAGES):
+        raise LwailError(f"{source}: [set] may hold lists of field=value for the stages {list(PLAN_STAGES)}")
+    for stage, assignments in overrides.items():
+        if not isinstance(assignments, list) or not all(isinstance(a, str) for a in assignments):
+            raise LwailError(f"{source}: [set] {stage} must be a list of \"field=value\" strings")
+        if stage == "pretrain-icvf" and any(a.partition("=")[0].strip() == "kind" for a in assignments):
+            raise LwailError(f"{source}: the embedding kind comes from 'embeddings', not from [set] pretrain-icvf")
+    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), {stage: tuple(a) for stage, a in overrides.items()})
+    for task in plan.tasks:
+        bundled_demos_path(task)  # refuses a task without bundled demos
+    for stage in PLAN_STAGES:
+        plan.config(stage)
+    for run in plan.runs:
+        for artifact_name in plan.names(run).values():
+            check_name(artifact_name)
+    return plan
+
+
+def _unique_list(value, kind: type) -> bool:
+    return (isinstance(value, list) and len(value) > 0 and all(isinstance(v, kind) and not isinstance(v, bool) for v in value)
+            and len(set(value)) == len(value))
+
+
+# ------------------------------------------------------------------------------ one stage, once
+def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact]) -> Artifact:
+    """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents."""
+    key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
+    done = store.finished_stage(plan.name, key, kind)
+    if done is not None:
+        return done
+    artifact = make()
+    store.record_finished_stage(plan.name, key, artifact)
+    return artifact
+
+
+def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
+    name = plan.names(SweepRun(task, plan.seeds[0], plan.kinds[0]))["demos"]
+    return _once(store, plan, "demos", name, {"task": task}, lambda: import_bundled_demos(store, env_id=task, name=name))
+
+
+def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
+    """Data set I of a task and seed, shared by the runs of every embedding kind (its ref returned)."""
+    store, plan = _worker(root, plan_dict)
+    name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["data"], plan.config("collect")
+    data = _once(store, plan, "dataset", name, {"config": cfg.to_dict(config), "seed": seed, "task": task},
+                 lambda: collect(store, env_id=task, config=config, seed=seed, name=name))
+    return data.ref
+
+
+def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str) -> dict:
+    """One run's own chain: embed → warm-up → imitate (resumed if killed) → evaluate."""
+    import torch
+
+    store, plan = _worker(root, plan_dict)
+    run, device = SweepRun(task, seed, kind), torch.device("cpu")
+    names = plan.names(run)
+    demos, data = store.resolve(demos_ref, "demos"), store.resolve(data_ref, "dataset")
+    embed_config = plan.config("pretrain-icvf", f"kind={kind}")
+    embedding = _once(store, plan, "embedding", names["embedding"], _record(embed_config, seed, data, demos),
+                      lambda: embed(store, data_ref=data.ref, config=embed_config, seed=seed, name=names["embedding"], device=device, demos_ref=demos.ref))
+    warmup_config = plan.config("warmup-disc")
+    disc = _once(store, plan, "discriminator", names["disc"], _record(warmup_config, seed, embedding, demos),
+                 lambda: warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=warmup_config, seed=seed, name=names["disc"], device=device))
+    imitation_config = plan.config("imitate")
+    policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
+                   lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
+                                   seed=seed, name=names["policy"], device=device, resume=store.has_checkpoint("policy", names["policy"])))
+    result = evaluate(store, policy_ref=policy.ref, config=plan.config("eval"), normalized=True)
+    return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
+
+
+def _record(config, seed: int, *parents: Artifact) -> dict:
+    return {"config": cfg.to_dict(config), "seed": seed, "parents": [p.hash for p in parents]}
+
+
+def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
+    import torch
+
+    torch.set_num_threads(1)  # one CPU per task: two multi-threaded torch processes per core run 3-4x slower
+    return Store(root), plan_from_dict(plan_dict, "the sweep plan")
+
+
+# ------------------------------------------------------------------------------ the driver
+def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_status: Callable[[dict[str, str]], None] | None = None,
+              poll_seconds: float = 5.0) -> list[str]:
+    """Run every stage of the plan on Ray; returns the runs that failed (each with its error). ``on_status`` gets
+    one line per run (queued, step and latest normalized score, done or failed) whenever one changes."""
+    try:
+        import ray
+    except ImportError:
+        raise LwailError('lwail sweep runs on Ray, which is not installed: pip install "lwail[sweep]"') from None
+    root, plan_dict = str(store.root.resolve()), plan.to_dict()
+    demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
+    ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
+    try:
+        collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=1, max_retries=0)(run_task)
+        data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t in plan.tasks for s in plan.seeds}
+        pending = {run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)]): r for r in plan.runs}
+        status = {r.label: "queued" for r in plan.runs}
+        failures: list[str] = []
+        shown: dict[str, str] = {}
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=poll_seconds)
+            for ref in done:
+                finished = pending.pop(ref)
+                try:
+                    status[finished.label] = f"done, normalized score {ray.get(ref)['normalized_score']:.1f}"
+                except Exception as exc:  # a run's failure is reported, the others go on
+                    cause = getattr(exc, "cause", None) or exc
+                    status[finished.label] = f"failed: {cause}"
+                    failures.append(f"{finished.label}: {cause}")
+            for waiting in pending.values():
+                status[waiting.label] = _live_status(store, plan, waiting) or status[waiting.label]
+            if on_status is not None and status != shown:
+                on_status(dict(status))
+                shown = dict(status)
+    finally:
+        ray.shutdown()
+    return failures
+
+
+def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
+    try:
+        curve, _ = read_curve(store, ref=plan.names(run)["policy"])
+    except LwailError:
+        return None
+    if curve.empty:
+        return None
+    last = curve.iloc[-1]
+    score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
+    return f"imitating: step {int(last['step'])}{score}"

@@ -1,0 +1,71 @@
+"""`lwail sweep` and `lwail report`: plans checked before anything runs; the smoke plan end to end on local Ray."""
+
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from conftest import committed_versions
+
+PLANS = Path(__file__).resolve().parents[1] / "plans"
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nsteps = 5', "unknown keys ['steps']"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0, 0]', "'seeds' must be a non-empty list of distinct integers"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [-1]', "'seeds' must be a non-empty list of distinct integers"),
+        ('name = "x"\ntasks = ["Swimmer-v5"]\nseeds = [0]', "no bundled demos for Swimmer-v5"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nembeddings = ["pca"]', "'embeddings' must be a non-empty list drawn from"),
+        ('name = "../x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]', "artifact name '../x'"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\nimitate = ["td3.gamma=1.5"]', "gamma"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\npretrain-icvf = ["kind=identity"]', "comes from 'embeddings'"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\ntrain = ["steps=1"]', "[set] may hold lists"),
+        ('name = "x"\ntasks = [', "is not valid TOML"),
+    ],
+)
+def test_a_bad_plan_is_one_clear_line_before_anything_runs(cli, store, tmp_path, text, message):
+    plan = tmp_path / "plan.toml"
+    plan.write_text(text)
+    result = cli("sweep", plan)
+    assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output, result.output
+    assert committed_versions(store) == []
+
+
+def test_without_ray_the_sweep_says_how_to_install_it(cli, store, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    result = cli("sweep", PLANS / "smoke.toml")
+    assert result.exit_code == 1 and 'pip install "lwail[sweep]"' in result.output
+
+
+def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli, store):
+    pytest.importorskip("ray")
+    result = cli("sweep", PLANS / "smoke.toml")
+    assert result.exit_code == 0, result.output
+    versions = {(kind, name): v for kind, name, v in committed_versions(store)}
+    kinds = [kind for kind, _ in versions]
+    # one demos per task, one data set per seed shared by both embeddings, then one chain per run
+    assert [kinds.count(k) for k in ("demos", "dataset", "embedding", "discriminator", "policy", "report")] == [1, 3, 6, 6, 6, 1]
+    report = store.resolve("smoke", "report")
+    summary = pd.read_csv(report.file("summary.csv"))
+    assert sorted(summary["kind"]) == ["icvf", "identity"] and (summary["seeds"] == 3).all()
+    runs = pd.read_csv(report.file("runs.csv"))
+    assert len(runs) == 6 and runs["final"].notna().all() and (runs["env_steps"] == 600).all()
+    assert report.file("curves-InvertedPendulum-v5.png").is_file()
+    assert "| InvertedPendulum-v5 | icvf |" in result.output
+
+    # a restart after one policy was lost redoes that imitation only
+    lost = store.resolve("smoke-invertedpendulum-v5-s1-icvf", "policy")
+    shutil.rmtree(lost.path.parent)
+    assert cli("sweep", PLANS / "smoke.toml").exit_code == 0
+    again = {(kind, name): v for kind, name, v in committed_versions(store)}
+    assert again.pop(("report", "smoke")) == [1, 2]  # a report per sweep
+    versions.pop(("report", "smoke"))
+    assert again == versions
+
+    rebuilt = cli("report", "smoke")
+    assert rebuilt.exit_code == 0 and "| InvertedPendulum-v5 | identity |" in rebuilt.output
