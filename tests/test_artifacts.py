@@ -1,4 +1,5 @@
 import json
+import os
 
 import pytest
 
@@ -87,3 +88,21 @@ def test_a_store_that_refuses_writes_is_a_clear_error_not_a_hang(store, monkeypa
         write(store)
     monkeypatch.undo()
     assert store.list() == [] and not list((store.root / ".tmp").iterdir())  # nothing half-written, nothing left over
+
+
+def test_a_writer_killed_mid_write_leaves_no_folder_behind_for_long(store):
+    import socket
+    import subprocess
+
+    tmp = store.root / ".tmp"
+    tmp.mkdir(parents=True)
+    with subprocess.Popen(["true"]) as gone:
+        pass
+    abandoned = tmp / f"{socket.gethostname()}+{gone.pid}+demos-x-abc"
+    live = tmp / f"{socket.gethostname()}+{os.getpid()}+demos-y-abc"
+    elsewhere = tmp / f"another-host+{gone.pid}+demos-z-abc"  # cannot tell from here: kept
+    for folder in (abandoned, live, elsewhere):
+        folder.mkdir()
+    with store.create("demos", "d", env=describe_env("InvertedPendulum-v5"), config={}, seed=None) as writer:
+        writer.path("a.txt").write_text("a")
+    assert sorted(p.name for p in tmp.iterdir()) == sorted([live.name, elsewhere.name])

@@ -271,3 +271,15 @@ def test_evals_csv_keeps_one_set_of_columns_whether_or_not_normalized(store):
     evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=1), normalized=True)
     rows = pd.read_csv(policy.path / "evals.csv")
     assert len(rows) == 2 and rows["normalized_score"].isna().tolist() == [True, False]
+
+
+def test_a_replay_buffer_that_cannot_fit_is_refused_before_anything_runs(cli, store, monkeypatch):
+    from conftest import committed_versions
+    from lwail_cli.stages import shared
+
+    monkeypatch.setattr(shared, "available_memory", lambda: 2**29)
+    # 10M transitions x (11 + 3 + 11 + 2) float32 = 1.0 GiB, with 0.5 GiB available
+    result = cli("expert", "train", "Hopper-v5", "--steps", "10000000", "--set", "td3.buffer_size=10000000", "--name", "huge")
+    assert result.exit_code == 1, result.output
+    assert "a replay buffer of 10000000 transitions needs 1.0 GiB of memory, 0.5 GiB is available" in result.output
+    assert committed_versions(store) == [] and not store.has_checkpoint("policy", "huge")

@@ -273,7 +273,9 @@ class Store:
         check_name(name)
         tmp_root = self.root / ".tmp"
         tmp_root.mkdir(parents=True, exist_ok=True)
-        directory = Path(tempfile.mkdtemp(prefix=f"{kind}-{name}-", dir=tmp_root))
+        _remove_abandoned(tmp_root)
+        # the writer's host and pid in the name, so a later writer can tell an abandoned folder from a live one
+        directory = Path(tempfile.mkdtemp(prefix=f"{socket.gethostname()}+{os.getpid()}+{kind}-{name}-", dir=tmp_root))
         writer = ArtifactWriter(directory)
         try:
             yield writer
@@ -444,6 +446,15 @@ class Store:
 def check_name(name: str) -> None:
     if not _NAME.fullmatch(name) or len(name) > MAX_NAME:
         raise LwailError(f"artifact name {name!r} must be 1-{MAX_NAME} letters, digits, '.', '_' or '-', starting with a letter or digit")
+
+
+def _remove_abandoned(tmp_root: Path) -> None:
+    """Delete the temp folders of writers on this host that were killed mid-write (never a live writer's)."""
+    for folder in tmp_root.iterdir():
+        host, _, rest = folder.name.partition("+")
+        pid = rest.partition("+")[0]
+        if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def _alive(pid: int) -> bool:

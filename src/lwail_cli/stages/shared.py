@@ -218,6 +218,7 @@ class PolicyRun:
     curve_file: str  # the learning curve's CSV: beside the checkpoint while running, then in the artifact
     write: Callable[[ArtifactWriter, RunState, TD3, RewardModel | None], None]  # the stage's own files and metrics
     recorded: dict | None = None  # the manifest's config, when more than ``config`` (default: ``config``)
+    feature_width: int = 0  # floats the reward model caches per buffered transition (LWAIL's pair features)
 
 
 def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: bool, on_progress: Progress | None = None) -> Artifact:
@@ -234,8 +235,10 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
 
         if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
             log_curve(checkpoints.resume["run"]["history"])
-        torch.manual_seed(run.seed)
         capacity = min(run.config.td3.buffer_size, run.config.train.steps)
+        floats = 2 * info.obs_dim + info.act_dim + 2 + run.feature_width  # s, a, s', r, not-done (+ cached features)
+        require_memory(4 * capacity * floats, f"a replay buffer of {capacity} transitions")
+        torch.manual_seed(run.seed)
         reward_model = run.reward_model(capacity) if run.reward_model is not None else None
         agent = TD3(info, run.config.td3, device)
         buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
@@ -254,6 +257,26 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
                 writer.metrics["reference"] = run.reference.source
         store.clear_checkpoint("policy", run.name)
     return writer.artifact
+
+
+def require_memory(needed: int, what: str) -> None:
+    """Refuse up front what would not fit: the OS grants huge zeroed tensors lazily and kills the run hours later."""
+    available = available_memory()
+    if available is not None and needed > available:
+        raise LwailError(f"{what} needs {needed / 2**30:.1f} GiB of memory, {available / 2**30:.1f} GiB is available: "
+                         "lower td3.buffer_size (--set td3.buffer_size=N) or --steps")
+
+
+def available_memory() -> int | None:
+    """Bytes the kernel says can be allocated without swapping (Linux); None where unknown."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
 
 
 def run_summary(run: RunState) -> dict:
