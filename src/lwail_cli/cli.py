@@ -51,6 +51,7 @@ RESUME = typer.Option(False, "--resume", help="Continue the killed run of the sa
 STEPS = typer.Option(cfg.TrainConfig.steps, "--steps", help="Environment steps (one TD3 update each).")
 EVAL_EVERY = typer.Option(cfg.TrainConfig.eval_every, "--eval-every", help="Evaluate the deterministic actor every this many env steps.")
 CHECKPOINT_EVERY = typer.Option(cfg.TrainConfig.checkpoint_every, "--checkpoint-every", help="Checkpoint every this many env steps.")
+VIDEO = typer.Option(None, "--video", help="Write an MP4 of each episode into this folder (headless; needs lwail[video]).")
 EXPERT_EPISODES = typer.Option(1, "--expert-episodes", help="Expert trajectories to use.")
 
 
@@ -180,10 +181,11 @@ def expert_record(
     episodes: int = typer.Option(cfg.RecordConfig.episodes, "--episodes", help="Episodes to record."),
     seed: int = SEED,
     name: Optional[str] = NAME,
+    video: Optional[Path] = VIDEO,
 ) -> None:
     """Roll a policy out and record state-only demonstrations with each episode's return."""
     config = cfg.RecordConfig(episodes=episodes)
-    say_written(demos_stage.record_demos(store(), policy_ref=policy, config=config, seed=seed, name=name))
+    say_written(demos_stage.record_demos(store(), policy_ref=policy, config=config, seed=seed, name=name, video_dir=video))
 
 
 @command(demos_app, "import")
@@ -282,11 +284,14 @@ def evaluate(
     normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
     demos: Optional[str] = typer.Option(None, "--demos", help="Demos whose return is the expert reference (default: the policy's own)."),
     seed: int = typer.Option(cfg.EvalConfig.seed, "--seed", help="Seed of the first evaluation episode.", min=0),
+    video: Optional[Path] = VIDEO,
 ) -> None:
     """Roll a policy out on the true reward; print mean ± std return (and the normalized score)."""
     config = cfg.EvalConfig(episodes=episodes, seed=seed)
-    result = evaluate_stage.evaluate(store(), policy_ref=policy, config=config, normalized=normalized, demos_ref=demos)
+    result = evaluate_stage.evaluate(store(), policy_ref=policy, config=config, normalized=normalized, demos_ref=demos, video_dir=video)
     _say_evaluation(result)
+    for path in result["videos"]:
+        typer.echo(f"wrote {path}")
 
 
 def _say_evaluation(result: dict) -> None:

@@ -39,10 +39,10 @@ class EnvInfo:
         )
 
 
-def make_env(env_id: str, seed: int | None = None) -> gym.Env:
+def make_env(env_id: str, seed: int | None = None, render: bool = False) -> gym.Env:
     """Create a gymnasium env with a flat Box observation and a bounded Box action, or explain why not."""
     try:
-        env = gym.make(env_id)
+        env = gym.make(env_id, render_mode="rgb_array") if render else gym.make(env_id)
     except gym.error.Error as exc:
         raise LwailError(f"unknown environment {env_id!r}: {exc}") from None
     except ImportError as exc:

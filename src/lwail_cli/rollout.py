@@ -32,19 +32,24 @@ def rollout(
     record: bool = False,
     transitions: int | None = None,
     on_step: Callable[[int], None] | None = None,
+    on_frame: Callable[[int, np.ndarray], None] | None = None,
+    frame_every: int = 1,
 ) -> Rollouts:
     """One episode per seed; ``policy=None`` samples uniformly random actions.
 
     With ``transitions``, a single environment (one seed) plays episode after episode, later resets
     unseeded, until exactly that many transitions; the last episode, cut by the budget, is truncated.
-    ``on_step`` gets the running count of transitions."""
+    ``on_step`` gets the running count of transitions; ``on_frame`` (episode index, RGB frame) gets the first
+    frame of each episode and one every ``frame_every`` steps."""
     if transitions is not None and len(seeds) != 1:
         raise ValueError("a transition budget runs one environment")
-    envs = [make_env(env_id) for _ in seeds]
+    envs = [make_env(env_id, render=on_frame is not None) for _ in seeds]
     try:
         observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds)]
-        for env, seed in zip(envs, seeds):
+        for index, (env, seed) in enumerate(zip(envs, seeds)):
             env.action_space.seed(seed)
+            if on_frame is not None:
+                on_frame(index, env.render())
         traces = [_Trace(obs) for obs in observations]
         finished: list[list[_Trace]] = [[] for _ in seeds]
         live, steps = list(range(len(envs))), 0
@@ -58,6 +63,8 @@ def rollout(
                 observations[i], reward, terminated, truncated, _ = envs[i].step(action)
                 traces[i].add(observations[i], action, reward, record)
                 steps += 1
+                if on_frame is not None and traces[i].length % frame_every == 0:
+                    on_frame(i, envs[i].render())
                 cut = transitions is not None and steps == transitions
                 if terminated or truncated or cut:
                     traces[i].terminated = bool(terminated)
@@ -86,11 +93,13 @@ class _Trace:
 
     def __init__(self, first_observation: np.ndarray):
         self.total = 0.0
+        self.length = 0
         self.terminated = False
         self.observations, self.actions, self.rewards = [first_observation], [], []
 
     def add(self, observation, action, reward: float, record: bool) -> None:
         self.total += reward
+        self.length += 1
         if record:
             self.observations.append(observation)
             self.actions.append(action)

@@ -13,17 +13,24 @@ from ..data import Episode, validate_episodes, write_npz
 from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
 from ..rollout import rollout
+from ..video import filmed_rollout
 from .shared import default_name, load_policy, policy_fn, read_external
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
 
 
-def record_demos(store: Store, *, policy_ref: str, config: RecordConfig, seed: int, name: str | None = None) -> Artifact:
+def record_demos(store: Store, *, policy_ref: str, config: RecordConfig, seed: int, name: str | None = None,
+                 video_dir: Path | None = None) -> Artifact:
+    """State-only episodes of a policy (with ``video_dir``, also an MP4 of each)."""
     policy = store.resolve(policy_ref, "policy")
     info = policy.env
     require_same_env(info, describe_env(info.id), f"policy {policy.ref}")
-    played = rollout(info.id, policy_fn(load_policy(policy)), range(seed, seed + config.episodes), record=True)
+    act, seeds = policy_fn(load_policy(policy)), range(seed, seed + config.episodes)
+    if video_dir is None:
+        played = rollout(info.id, act, seeds, record=True)
+    else:
+        played, _ = filmed_rollout(info.id, act, seeds, video_dir, f"{policy.name}-v{policy.version}", record=True)
     episodes = [Episode(observations=e.observations, terminated=e.terminated) for e in played.episodes]  # states only
     name = name or default_name(info.id, "demos")
     return _write_demos(store, name, info, episodes, played.returns, {"source": f"policy:{policy.ref}", "episodes": config.episodes}, seed, [policy])

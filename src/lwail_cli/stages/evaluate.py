@@ -8,17 +8,28 @@ from ..config import EvalConfig
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
 from ..rollout import rollout
+from ..video import filmed_rollout
 from .shared import lineage_demos, load_policy, now, policy_fn, reference_for_env
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from ..artifacts import Store
 
 
-def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None) -> dict:
+def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None,
+             video_dir: Path | None = None) -> dict:
+    """Mean ± std true return (and normalized score); with ``video_dir``, an MP4 of each episode there."""
     policy = store.resolve(policy_ref, "policy")
     require_same_env(policy.env, describe_env(policy.env.id), f"policy {policy.ref}")
     seeds = range(config.seed, config.seed + config.episodes)
-    returns = rollout(policy.env.id, policy_fn(load_policy(policy)), seeds).returns
+    act = policy_fn(load_policy(policy))
+    videos = []
+    if video_dir is None:
+        returns = rollout(policy.env.id, act, seeds).returns
+    else:
+        played, videos = filmed_rollout(policy.env.id, act, seeds, video_dir, f"{policy.name}-v{policy.version}")
+        returns = played.returns
     result = {"policy": policy.ref, "episodes": config.episodes, "seed": config.seed,
               "return_mean": float(returns.mean()), "return_std": float(returns.std())}
     if normalized:
@@ -31,4 +42,4 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
         result.update(normalized_score=reference.normalize(result["return_mean"]), reference=reference.source)
     # one fixed set of columns, so every row of evals.csv reads back whether or not it was normalized
     policy.append_log("evals.csv", {"created": now(), **result, "normalized_score": result.get("normalized_score", ""), "reference": result.get("reference", "")})
-    return result
+    return result | {"videos": videos}

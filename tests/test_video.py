@@ -1,0 +1,49 @@
+"""`eval --video` and `expert record --video`: one MP4 per episode, headless, or one clear line saying why not."""
+
+import sys
+
+import pytest
+
+from conftest import committed_versions
+
+
+@pytest.fixture
+def policy(cli, store):
+    result = cli("expert", "train", "InvertedPendulum-v5", "--steps", "400", "--eval-every", "400",
+                 "--set", "td3.random_steps=300", "--set", "td3.learning_starts=300", "--set", "td3.hidden=(16,16)", "--name", "p")
+    assert result.exit_code == 0, result.output
+    return "p"
+
+
+def test_eval_writes_one_playable_mp4_per_episode_named_by_its_return(cli, store, policy, tmp_path):
+    imageio = pytest.importorskip("imageio.v2")
+    result = cli("eval", policy, "--episodes", "2", "--video", tmp_path / "videos")
+    assert result.exit_code == 0, result.output
+    videos = sorted((tmp_path / "videos").glob("*.mp4"))
+    assert [v.name.split("-return")[0] for v in videos] == ["p-v1-seed100", "p-v1-seed101"]
+    for video in videos:
+        episode_return = int(video.stem.split("-return")[1])
+        frames = imageio.mimread(video)
+        # InvertedPendulum earns 1 per step but 0 on the falling one, and renders at 25 fps (< 30): every frame is kept
+        assert len(frames) == (episode_return + 1) + 1 and frames[0].shape == (480, 480, 3) and frames[0].std() > 10
+    assert not list((tmp_path / "videos").glob(".*"))  # no partial files left
+
+
+def test_expert_record_films_the_episodes_it_records(cli, store, policy, tmp_path):
+    pytest.importorskip("imageio")
+    result = cli("expert", "record", policy, "--episodes", "2", "--name", "d", "--video", tmp_path / "videos")
+    assert result.exit_code == 0, result.output
+    assert len(list((tmp_path / "videos").glob("p-v1-seed*-return*.mp4"))) == 2
+
+
+def test_missing_video_support_is_one_clear_line(cli, store, policy, tmp_path, monkeypatch):
+    before = committed_versions(store)
+    with monkeypatch.context() as patch:
+        patch.setitem(sys.modules, "imageio.v2", None)
+        result = cli("eval", policy, "--video", tmp_path / "v")
+    assert result.exit_code == 1 and 'pip install "lwail[video]"' in result.output
+    pytest.importorskip("imageio")
+    monkeypatch.setenv("MUJOCO_GL", "no-such-backend")
+    result = cli("eval", policy, "--video", tmp_path / "v")
+    assert result.exit_code == 1 and "cannot render InvertedPendulum-v5 headless with MUJOCO_GL=no-such-backend" in result.output
+    assert "Traceback" not in result.output and committed_versions(store) == before
