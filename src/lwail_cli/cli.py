@@ -6,6 +6,7 @@ import functools
 import json
 import re
 import sys
+import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
@@ -41,7 +42,7 @@ demos_app = typer.Typer(help="Import state-only demonstrations.", no_args_is_hel
 app.add_typer(expert_app, name="expert")
 app.add_typer(demos_app, name="demos")
 
-_state: dict = {"store": None}
+_state: dict = {"store": None, "tensorboard": None}
 
 SEED = typer.Option(0, "--seed", help="Random seed.", min=0)
 NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
@@ -71,9 +72,13 @@ def main(
     threads: Optional[int] = typer.Option(
         None, "--threads", envvar="LWAIL_THREADS", help="CPU threads for torch (default: all cores; use 1 per job when running several).", min=1
     ),
+    tensorboard: Optional[Path] = typer.Option(
+        None, "--tensorboard", envvar="LWAIL_TENSORBOARD", help="Also write every long stage's figures as TensorBoard scalars under this folder."
+    ),
     version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True, help="Print the version and exit."),
 ) -> None:
     _state["store"] = store_dir
+    _state["tensorboard"] = tensorboard
     if threads is not None:
         import torch
 
@@ -102,21 +107,41 @@ def command(parent: typer.Typer, name: str):
 
 @contextmanager
 def progress_bar(description: str, total: int):
-    """A tqdm bar that appears on the first report (so input errors print alone); yields the stages' callback."""
+    """A tqdm bar that appears on the first report (so input errors print alone); yields the stages' callback.
+    With --tensorboard, every figure reported (an evaluation's whole CSV row included) is also a scalar."""
     bars: list[tqdm] = []
+    scalars = tensorboard_writer(description)
 
     def report(done: int, shown: dict) -> None:
         if not bars:
             bars.append(tqdm(total=total, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
         bars[0].update(done - bars[0].n)
         if shown:
-            bars[0].set_postfix({key: _fmt(value) for key, value in shown.items()}, refresh=False)
+            bars[0].set_postfix({key: _fmt(value) for key, value in shown.items() if "/" not in key}, refresh=False)
+        if scalars is not None:
+            for key, value in shown.items():
+                if isinstance(value, (int, float)) and not isinstance(value, bool):
+                    scalars.add_scalar(key, value, done)
 
     try:
         yield report
     finally:
         if bars:
             bars[0].close()
+        if scalars is not None:
+            scalars.close()
+
+
+def tensorboard_writer(description: str):
+    """A SummaryWriter for one stage's run (None without --tensorboard)."""
+    if _state["tensorboard"] is None:
+        return None
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:
+        raise LwailError('--tensorboard needs the tensorboard package: pip install "lwail[tensorboard]"') from None
+    run = re.sub(r"[^A-Za-z0-9._-]+", "_", description).strip("_")
+    return SummaryWriter(log_dir=str(Path(_state["tensorboard"]) / f"{run}-{time.strftime('%Y%m%d-%H%M%S')}"))
 
 
 def say_written(artifact) -> None:

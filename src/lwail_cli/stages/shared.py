@@ -280,7 +280,8 @@ def available_memory() -> int | None:
 
 
 def run_summary(run: RunState) -> dict:
-    """The latest episode return, evaluation and score of a run in progress."""
+    """The latest episode return, evaluation and score of a run in progress; at an evaluation's step, also that
+    evaluation's whole row as ``curve/<column>`` (what a live logger records beside the CSV)."""
     shown = {}
     if run.episode_returns:
         shown["ep_return"] = run.episode_returns[-1]
@@ -289,6 +290,8 @@ def run_summary(run: RunState) -> dict:
         shown["eval"] = last["return_mean"]
         if "normalized_score" in last:
             shown["score"] = last["normalized_score"]
+        if last["step"] == run.step:
+            shown.update({f"curve/{column}": value for column, value in last.items() if column != "step"})
     return shown
 
 
