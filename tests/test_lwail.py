@@ -263,6 +263,34 @@ def test_a_policy_loads_in_python_and_predicts_like_sb3(store):
     assert np.allclose(action, expected, atol=1e-6)
 
 
+def test_embeddings_rewards_and_episodes_load_in_python(store):
+    import lwail_cli
+
+    device = torch.device("cpu")
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=400), seed=0)
+    icvf = cfg.ICVFConfig(steps=20, hidden=(16,), embedding_dim=8, log_every=20)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=device)
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=5), seed=0, device=device)
+
+    expert = lwail_cli.load_episodes(bundled.ref, store=store.root)
+    with np.load(demos.bundled_demos_path("InvertedPendulum-v5")) as shipped:
+        assert np.array_equal(expert["observations"], shipped["observations"]) and np.array_equal(expert["episode_ends"], shipped["episode_ends"])
+    random = lwail_cli.load_episodes(data.ref, store=store.root)
+    assert len(random["observations"]) == 400 + random["episode_ends"].sum()  # one more observation than steps per episode
+
+    phi = lwail_cli.load_embedding(embedding.ref, store=store.root)
+    latents = phi(random["observations"][:5].astype(np.float64))
+    assert latents.shape == (5, 8) and np.allclose(phi(random["observations"][0]), latents[0], atol=1e-6)
+
+    reward = lwail_cli.load_reward(disc.ref, store=store.root)
+    first = slice(0, int(np.flatnonzero(expert["episode_ends"])[0]) + 1)  # the warm-up's expert pairs: episode one
+    observations = expert["observations"][first]
+    rewards = reward(observations[:-1], observations[1:])
+    assert rewards.shape == (len(observations) - 1,) and np.all((rewards > 0) & (rewards < 1))
+    assert float(rewards.mean()) == pytest.approx(disc.metrics["reward_expert_mean"], abs=1e-5)
+
+
 def test_evals_csv_keeps_one_set_of_columns_whether_or_not_normalized(store):
     import pandas as pd
 

@@ -234,14 +234,19 @@ def _flags(array: np.ndarray, key: str, count: int, path: Path) -> np.ndarray:
     return array.astype(bool)
 
 
-def write_npz(path: Path, episodes: list[Episode], returns: np.ndarray | None = None) -> None:
+def episode_arrays(episodes: list[Episode]) -> dict[str, np.ndarray]:
+    """Episodes as the flat arrays of the .npz format: observations, episode_ends, terminations."""
     observations = np.concatenate([e.observations for e in episodes]).astype(np.float32)
     ends = np.zeros(len(observations), dtype=bool)
     terminations = np.zeros(len(observations), dtype=bool)
     last = np.cumsum([len(e.observations) for e in episodes]) - 1
     ends[last] = True
     terminations[last] = [e.terminated for e in episodes]
-    arrays = {"observations": observations, "episode_ends": ends, "terminations": terminations}
+    return {"observations": observations, "episode_ends": ends, "terminations": terminations}
+
+
+def write_npz(path: Path, episodes: list[Episode], returns: np.ndarray | None = None) -> None:
+    arrays = episode_arrays(episodes)
     if returns is not None:
         arrays["returns"] = np.asarray(returns, dtype=np.float64)
     with open(path, "wb") as handle:
