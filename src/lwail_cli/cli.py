@@ -24,6 +24,7 @@ from .stages import demos as demos_stage
 from .stages import embed as embed_stage
 from .stages import evaluate as evaluate_stage
 from .stages import expert as expert_stage
+from .stages import export as export_stage
 from .stages import imitate as imitate_stage
 from .stages import quickstart as quickstart_stage
 from .stages import report as report_stage
@@ -219,11 +220,19 @@ def demos_import(
     from_minari: Optional[str] = typer.Option(None, "--from-minari", help="A dataset id in the local Minari store."),
     from_file: Optional[Path] = typer.Option(None, "--from-file", help="A .npz with 'observations', 'episode_ends' (and optional 'returns')."),
     bundled: bool = typer.Option(False, "--bundled", help="The demos shipped with lwail for this env."),
+    from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
+    episodes: int = typer.Option(cfg.RecordConfig.episodes, "--episodes", help="Episodes to roll out (--from-sb3)."),
+    seed: int = SEED,
     name: Optional[str] = NAME,
 ) -> None:
-    """Import state-only demonstrations from a local Minari dataset, a .npz, or the bundled set."""
+    """Import state-only demonstrations: a local Minari dataset, a .npz, an SB3 model's rollouts, or the bundled set."""
+    if sum(map(bool, (bundled, from_sb3, from_minari or from_file))) > 1:
+        raise LwailError("give one source: --bundled, --from-sb3, --from-minari or --from-file")
     if bundled:
         say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
+    elif from_sb3 is not None:
+        config = cfg.RecordConfig(episodes=episodes)
+        say_written(demos_stage.import_sb3_demos(store(), env_id=env_id, model=from_sb3, config=config, seed=seed, name=name))
     else:
         say_written(demos_stage.import_demos(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file))
 
@@ -394,6 +403,16 @@ def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name o
 def _say_report(artifact) -> None:
     say_written(artifact)
     typer.echo(artifact.file("summary.md").read_text())
+
+
+@command(app, "export")
+def export(
+    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
+    out: Path = typer.Option(..., "--out", help="File to write (model.zip for --format sb3)."),
+    fmt: str = typer.Option("sb3", "--format", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
+) -> None:
+    """Write a policy for another toolkit: the actor as an SB3 TD3 model (its critic freshly initialised)."""
+    typer.echo(f"wrote {export_stage.export_policy(store(), policy_ref=policy, fmt=fmt, out=out)}")
 
 
 # ------------------------------------------------------------------------------ the store

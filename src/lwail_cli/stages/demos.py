@@ -13,6 +13,7 @@ from ..data import Episode, validate_episodes, write_npz
 from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
 from ..rollout import rollout
+from ..sb3 import read_sb3_policy
 from ..video import filmed_rollout
 from .shared import default_name, load_policy, policy_fn, read_external
 
@@ -22,18 +23,33 @@ if TYPE_CHECKING:
 
 def record_demos(store: Store, *, policy_ref: str, config: RecordConfig, seed: int, name: str | None = None,
                  video_dir: Path | None = None) -> Artifact:
-    """State-only episodes of a policy (with ``video_dir``, also an MP4 of each)."""
+    """State-only episodes of an lwail policy (with ``video_dir``, also an MP4 of each)."""
     policy = store.resolve(policy_ref, "policy")
     info = policy.env
     require_same_env(info, describe_env(info.id), f"policy {policy.ref}")
-    act, seeds = policy_fn(load_policy(policy)), range(seed, seed + config.episodes)
+    return _record(store, info, policy_fn(load_policy(policy)), config, seed, name or default_name(info.id, "demos"),
+                   f"policy:{policy.ref}", [policy], video_dir, f"{policy.name}-v{policy.version}")
+
+
+def import_sb3_demos(store: Store, *, env_id: str, model: Path, config: RecordConfig, seed: int, name: str | None = None,
+                     video_dir: Path | None = None) -> Artifact:
+    """State-only episodes of a Stable-Baselines3 model.zip's deterministic policy (read without unpickling)."""
+    if not model.is_file():
+        raise LwailError(f"no such file: {model}")
+    info = describe_env(env_id)
+    return _record(store, info, read_sb3_policy(model, info), config, seed, name or default_name(env_id, "sb3-demos"),
+                   f"sb3:{model.name}", [], video_dir, model.stem)
+
+
+def _record(store: Store, info: EnvInfo, act, config: RecordConfig, seed: int, name: str, source: str, parents: list,
+            video_dir: Path | None, video_prefix: str) -> Artifact:
+    seeds = range(seed, seed + config.episodes)
     if video_dir is None:
         played = rollout(info.id, act, seeds, record=True)
     else:
-        played, _ = filmed_rollout(info.id, act, seeds, video_dir, f"{policy.name}-v{policy.version}", record=True)
+        played, _ = filmed_rollout(info.id, act, seeds, video_dir, video_prefix, record=True)
     episodes = [Episode(observations=e.observations, terminated=e.terminated) for e in played.episodes]  # states only
-    name = name or default_name(info.id, "demos")
-    return _write_demos(store, name, info, episodes, played.returns, {"source": f"policy:{policy.ref}", "episodes": config.episodes}, seed, [policy])
+    return _write_demos(store, name, info, episodes, played.returns, {"source": source, "episodes": config.episodes}, seed, parents)
 
 
 def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
