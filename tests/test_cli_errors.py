@@ -68,6 +68,15 @@ def test_malformed_npz_arrays_are_refused_not_guessed(cli, store, seeded, tmp_pa
     assert_refused(cli("demos", "import", "InvertedPendulum-v5", "--from-file", path), store, seeded, message)
 
 
+def test_a_npy_for_a_npz_and_a_store_that_is_a_file_are_one_line(cli, store, seeded, tmp_path, monkeypatch):
+    np.save(tmp_path / "x.npy", np.zeros((5, 4)))
+    assert_refused(cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "x.npy"), store, seeded, "holds a single array (.npy)")
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("LWAIL_STORE", str(tmp_path / "file"))
+    result = cli("demos", "import", "InvertedPendulum-v5", "--bundled")
+    assert result.exit_code == 1 and "Not a directory" in result.output and "Traceback" not in result.output
+
+
 def test_nan_and_empty_data_files_are_refused(cli, store, seeded, tmp_path):
     path = write_states_npz(tmp_path / "nan.npz", episodes=2, obs_dim=4)
     arrays = dict(np.load(path))

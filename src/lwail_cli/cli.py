@@ -87,7 +87,7 @@ def main(
 
 
 def command(parent: typer.Typer, name: str):
-    """Register a command whose LwailError becomes a one-line message and exit code 1."""
+    """Register a command whose LwailError (or OSError from the file system) becomes one line and exit code 1."""
 
     def register(function):
         @functools.wraps(function)
@@ -96,6 +96,10 @@ def command(parent: typer.Typer, name: str):
                 return function(*args, **kwargs)
             except LwailError as exc:
                 typer.echo(f"error: {exc}", err=True)
+                raise typer.Exit(1) from None
+            except OSError as exc:  # the machine, not lwail: a store that is a file, read-only, a full disk
+                where = f" ({exc.filename})" if exc.filename else ""
+                typer.echo(f"error: {exc.strerror or exc}{where}; writes are atomic, so nothing was half-written", err=True)
                 raise typer.Exit(1) from None
             except KeyboardInterrupt:
                 typer.echo("interrupted: the last checkpoint (if any) is kept; rerun with --resume", err=True)

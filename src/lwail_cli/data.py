@@ -194,7 +194,10 @@ def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     each episode's last observation; optional ``terminations`` (N,) bool on those last observations
     and ``returns`` (one per episode). Returns the episodes and the returns (or None)."""
     try:
-        with np.load(path) as archive:
+        loaded = np.load(path)
+        if not isinstance(loaded, np.lib.npyio.NpzFile):
+            raise LwailError(f"{path} holds a single array (.npy), not a .npz of named arrays ('observations', 'episode_ends', ...)")
+        with loaded as archive:
             arrays = {key: archive[key] for key in archive.files}
     except (OSError, ValueError, EOFError) as exc:  # an empty file raises EOFError
         raise LwailError(f"cannot read {path} as a .npz file: {exc or 'it is empty'}") from None
