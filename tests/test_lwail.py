@@ -215,6 +215,27 @@ def test_resume_may_change_the_budget_only(store):
     assert pd.read_csv(stopped.file("training.csv"))["step"].tolist() == [500]  # evaluated where it stopped
 
 
+def test_icvf_pretraining_resumes_after_a_kill_bit_for_bit(store):
+    device = torch.device("cpu")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=400), seed=0)
+    config = cfg.EmbedConfig(icvf=cfg.ICVFConfig(steps=60, hidden=(16,), embedding_dim=8, log_every=10, checkpoint_every=20))
+    straight = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="straight", device=device)
+
+    def kill(step, shown):
+        if step == 50:  # after the checkpoint at 40: steps 41-50 are lost and redone
+            raise Killed
+
+    with pytest.raises(Killed):
+        embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, on_progress=kill)
+    assert store.load_checkpoint("embedding", "killed")["step"] == 40
+    with pytest.raises(LwailError, match="made with another seed"):
+        embed.embed(store, data_ref=data.ref, config=config, seed=1, name="killed", device=device, resume=True)
+    resumed = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, resume=True)
+    assert straight.file("phi.safetensors").read_bytes() == resumed.file("phi.safetensors").read_bytes()
+    assert straight.file("loss.csv").read_text().count("\n") == resumed.file("loss.csv").read_text().count("\n") == 7
+    assert not store.has_checkpoint("embedding", "killed")
+
+
 def test_a_killed_run_is_neither_overwritten_nor_run_twice(store):
     import socket
     import subprocess

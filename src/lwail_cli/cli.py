@@ -253,6 +253,7 @@ def pretrain_icvf(
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
+    resume: bool = typer.Option(False, "--resume", help="Continue the killed pre-training of the same name from its last checkpoint."),
     overrides: list[str] = SET,
 ) -> None:
     """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
@@ -261,7 +262,8 @@ def pretrain_icvf(
     total = config.icvf.steps if config.kind == "icvf" else 0
     with progress_bar("pretrain-icvf", total) as report:
         artifact = embed_stage.embed(
-            store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report
+            store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report,
+            resume=resume,
         )
     say_written(artifact)
 

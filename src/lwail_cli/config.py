@@ -156,6 +156,7 @@ class ICVFConfig(Validated):
     p_outcome_is_goal: float = setting(0.5, "outcome s+ = the goal z with this probability (else drawn anew)", low=0.0, high=1.0)
     holdout_fraction: float = setting(0.1, "episodes held out of training for the quality probe", low=0.0, below=1.0)
     log_every: int = setting(500, "log the loss and probe every this many steps", low=1, high=MAX_STEPS)
+    checkpoint_every: int = setting(5_000, "checkpoint the pre-training every this many steps (resume: --resume)", low=1, high=MAX_STEPS)
 
     def check(self) -> None:
         trajectory_goals = vars(self)["p_goal_current"] + vars(self)["p_goal_trajectory"]

@@ -139,6 +139,14 @@ class ICVFLearner:
             soft_update(self.target, self.model, self.config.tau)
         return loss.detach()
 
+    def state_dict(self) -> dict:
+        return {"model": self.model.state_dict(), "target": self.target.state_dict(), "optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.model.load_state_dict(state["model"])
+        self.target.load_state_dict(state["target"])
+        self.optimizer.load_state_dict(state["optimizer"])
+
 
 # ------------------------------------------------------------------------------ quality probe
 def split_episodes(episodes: list[Episode], holdout_fraction: float, seed: int) -> tuple[list[Episode], list[Episode]]:
@@ -210,13 +218,25 @@ def pretrain_icvf(
     seed: int,
     device: torch.device | str = "cpu",
     on_progress: Callable[[int, float], None] | None = None,
+    resume: dict | None = None,
+    on_checkpoint: Callable[[dict], None] | None = None,
 ) -> ICVFResult:
+    """ICVF on the episodes; every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state, and
+    ``resume`` (such a state) continues bit for bit."""
     torch.manual_seed(seed)
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     sampler = GoalSampler(train, config, torch.device(device))
     learner = ICVFLearner(obs_dim, config, device)
-    rows, running, started = [], torch.zeros((), device=device), time.perf_counter()
-    for step in range(1, config.steps + 1):
+    rows, running, first, elapsed = [], torch.zeros((), device=device), 1, 0.0
+    if resume is not None:
+        learner.load_state_dict(resume["learner"])
+        torch.set_rng_state(resume["torch_rng"])
+        if resume.get("cuda_rng") is not None:
+            torch.cuda.set_rng_state_all(resume["cuda_rng"])
+        rows, first, elapsed = list(resume["rows"]), resume["step"] + 1, resume["wall_time"]
+        running = resume["running"].to(device)
+    started = time.perf_counter() - elapsed
+    for step in range(first, config.steps + 1):
         running += learner.update(sampler.sample(config.batch_size))
         if step % config.log_every == 0 or step == config.steps:
             span = config.log_every if step % config.log_every == 0 else step % config.log_every
@@ -226,5 +246,11 @@ def pretrain_icvf(
             running.zero_()
             if on_progress is not None:
                 on_progress(step, rows[-1]["loss"])
+        if on_checkpoint is not None and step % config.checkpoint_every == 0 and step < config.steps:
+            on_checkpoint({
+                "learner": learner.state_dict(), "torch_rng": torch.get_rng_state(),
+                "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
+                "rows": list(rows), "step": step, "wall_time": time.perf_counter() - started, "running": running.detach().cpu().clone(),
+            })
     encoder = export_encoder(learner.model, obs_dim, config).cpu()
     return ICVFResult(encoder, pd.DataFrame(rows), probe_spearman(encoder, held_out), probe_spearman(lambda x: x, held_out))

@@ -8,7 +8,7 @@ from .. import config as cfg
 from ..data import validate_episodes
 from ..envs import require_same_env
 from ..icvf import probe_critic_needs, pretrain_icvf, probe_spearman, split_episodes
-from .shared import Progress, default_name, load_dataset, load_demos, save_weights
+from .shared import Progress, default_name, load_dataset, load_demos, prepare_run, save_weights
 
 if TYPE_CHECKING:
     import torch
@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 
 def embed(
     store: Store, *, data_ref: str, config: cfg.EmbedConfig, seed: int, name: str | None = None, device: torch.device,
-    demos_ref: str | None = None, on_progress: Progress | None = None,
+    demos_ref: str | None = None, on_progress: Progress | None = None, resume: bool = False,
 ) -> Artifact:
     """φ from data set I; with ``demos_ref``, also probe what the critic needs (expert vs random separation,
     progress along the expert trajectory) for φ and for raw states. The probes never train anything."""
@@ -46,12 +46,17 @@ def embed(
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe} | critic_probe(lambda x: x, "") | raw)
         return writer.artifact
-    result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
-                           None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}))
     record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
-    with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
-        save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
-        result.log.to_csv(writer.path("loss.csv"), index=False)
-        writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
-        writer.metrics.update(critic_probe(result.encoder, "") | raw)
+    with store.claim_run("embedding", name, resume=resume):
+        checkpoints = prepare_run(store, "embedding", name, resume,
+                                  {"config": record, "seed": seed, "env": info.id, "parents": [p.hash for p in parents]})
+        result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
+                               None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}),
+                               resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint)
+        with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
+            save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
+            result.log.to_csv(writer.path("loss.csv"), index=False)
+            writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
+            writer.metrics.update(critic_probe(result.encoder, "") | raw)
+        store.clear_checkpoint("embedding", name)
     return writer.artifact

@@ -176,24 +176,19 @@ class TrainingRun:
     on_checkpoint: Callable[[dict], None]
 
 
-def prepare_run(store: Store, name: str, resume: bool, record: dict) -> TrainingRun:
+def prepare_run(store: Store, kind: str, name: str, resume: bool, record: dict) -> TrainingRun:
     """Checkpoints carry what made the run (config, seed, env, parents); a resume under anything else is refused.
-
-    The one thing a resume may change is the budget, ``train.steps``: a run continues to a longer one, or stops
-    where it stands with ``--steps`` set to the checkpoint's step; the steps before are the same either way."""
-    state = store.load_checkpoint("policy", name) if resume else None
+    The one thing a resume may change is an online run's budget, ``train.steps`` (see ``train_policy``)."""
+    state = store.load_checkpoint(kind, name) if resume else None
     if state is not None:
         recorded = state.get("record", {})
         changed = [key for key in record if _without_budget(recorded.get(key)) != _without_budget(record[key])]
         if changed:
             raise LwailError(
-                f"the checkpoint of policy/{name} was made with another {' and '.join(changed)}; "
+                f"the checkpoint of {kind}/{name} was made with another {' and '.join(changed)}; "
                 "rerun with the same options (--steps may differ), or without --resume"
             )
-        reached, budget = state["run"]["step"], record["config"]["train"]["steps"]
-        if budget < reached:
-            raise LwailError(f"the checkpoint of policy/{name} is at step {reached}: --steps must be at least {reached}")
-    return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint("policy", name, {**checkpoint, "record": record}))
+    return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint(kind, name, {**checkpoint, "record": record}))
 
 
 def _without_budget(value):
@@ -226,9 +221,13 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
     info = describe_env(run.env_id)
     record = cfg.to_dict(run.config) if run.recorded is None else run.recorded
     with store.claim_run("policy", run.name, resume=resume):
-        checkpoints = prepare_run(store, run.name, resume, {
+        checkpoints = prepare_run(store, "policy", run.name, resume, {
             "config": record, "seed": run.seed, "env": run.env_id, "parents": [p.hash for p in run.parents]
         })
+        if checkpoints.resume is not None and checkpoints.resume["run"]["step"] > run.config.train.steps:
+            # a run continues to a longer budget, or stops where it stands with --steps = the checkpoint's step
+            reached = checkpoints.resume["run"]["step"]
+            raise LwailError(f"the checkpoint of policy/{run.name} is at step {reached}: --steps must be at least {reached}")
 
         def log_curve(history: list[dict]) -> None:
             store.write_run_log("policy", run.name, run.curve_file, history)
