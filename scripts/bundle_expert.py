@@ -56,7 +56,7 @@ def main() -> None:
     parser.add_argument("--store", default=None)
     args = parser.parse_args()
     store = Store(args.store)
-    problems = [problem for _, problem in store.verify(args.demos_ref) if problem]
+    problems = [problem for _, problem in store.verify(store.resolve(args.demos_ref, "demos").ref) if problem]
     if problems:
         raise SystemExit("; ".join(problems))
     env_id, npz, entry = expert_entry(store, args.demos_ref)
