@@ -322,6 +322,20 @@ def test_evals_csv_keeps_one_set_of_columns_whether_or_not_normalized(store):
     assert len(rows) == 2 and rows["normalized_score"].isna().tolist() == [True, False]
 
 
+def test_evaluating_a_read_only_policy_still_reports_its_score(cli, store, monkeypatch):
+    from lwail_cli.artifacts import Artifact
+
+    policy = expert.train_expert(store, env_id="InvertedPendulum-v5", config=_expert_config(400, 400), seed=0, device=torch.device("cpu"))
+
+    def read_only(self, filename, row):
+        raise PermissionError(13, "Permission denied", str(self.path / filename))
+
+    monkeypatch.setattr(Artifact, "append_log", read_only)
+    result = cli("eval", policy.ref, "--episodes", "1")
+    assert result.exit_code == 0 and "return" in result.output
+    assert "warning: not appended to evals.csv: Permission denied" in result.output
+
+
 def test_a_replay_buffer_that_cannot_fit_is_refused_before_anything_runs(cli, store, monkeypatch):
     from conftest import committed_versions
     from lwail_cli.stages import shared

@@ -338,6 +338,8 @@ def _say_evaluation(result: dict) -> None:
     typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes")
     if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
+    if result.get("not_logged"):
+        typer.echo(f"warning: not appended to evals.csv: {result['not_logged']}", err=True)
 
 
 CURVE_COLUMNS = ("step", "wall_time", "return_mean", "return_std", "normalized_score", "reward_expert_mean", "pseudo_reward_mean",

@@ -41,5 +41,10 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
             raise LwailError(f"no reference returns for {policy.env.id}: pass --demos with demos that carry returns")
         result.update(normalized_score=reference.normalize(result["return_mean"]), reference=reference.source)
     # one fixed set of columns, so every row of evals.csv reads back whether or not it was normalized
-    policy.append_log("evals.csv", {"created": now(), **result, "normalized_score": result.get("normalized_score", ""), "reference": result.get("reference", "")})
-    return result | {"videos": videos}
+    row = {"created": now(), **result, "normalized_score": result.get("normalized_score", ""), "reference": result.get("reference", "")}
+    try:
+        policy.append_log("evals.csv", row)
+        not_logged = None
+    except OSError as exc:  # e.g. a policy shared read-only: the evaluation itself still counts
+        not_logged = f"{exc.strerror or exc} ({exc.filename or policy.path})"
+    return result | {"videos": videos, "not_logged": not_logged}
