@@ -1,5 +1,5 @@
-"""SIGKILL a real `lwail expert train` process at random moments, resume it each time: the result is byte for
-byte the unkilled run's (atomic checkpoints, a dead owner's lock taken over, nothing half-written)."""
+"""SIGKILL real `lwail` processes of each long stage at random moments and resume them each time: the result is
+byte for byte the unkilled run's (atomic checkpoints, a dead owner's lock taken over, nothing half-written)."""
 
 import signal
 import subprocess
@@ -9,33 +9,55 @@ import time
 import numpy as np
 import pytest
 
+from lwail_cli import config as cfg
 from lwail_cli.artifacts import Store
+from lwail_cli.stages import collect, demos, embed, warmup
+
+TD3_SMALL = ["--set", "td3.random_steps=300", "--set", "td3.learning_starts=300", "--set", "td3.hidden=(32,32)", "--set", "td3.batch_size=64"]
+STAGES = {  # stage -> (kind, command after `lwail`, the file compared)
+    "expert train": ("policy", ["expert", "train", "InvertedPendulum-v5", "--steps", "2500", "--eval-every", "500",
+                                "--checkpoint-every", "200", *TD3_SMALL], "final_actor.safetensors"),
+    "pretrain-icvf": ("embedding", ["pretrain-icvf", "data", "--steps", "600", "--set", "icvf.checkpoint_every=50",
+                                    "--set", "icvf.log_every=50", "--set", "icvf.hidden=(64,)", "--set", "icvf.embedding_dim=32"], "phi.safetensors"),
+    "imitate": ("policy", ["imitate", "InvertedPendulum-v5", "--demos", "demos", "--embedding", "identity", "--disc", "disc",
+                           "--steps", "2000", "--eval-every", "500", "--checkpoint-every", "200", "--set", "update_every=400",
+                           "--set", "update_steps=3", *TD3_SMALL], "actor.safetensors"),
+}
 
 
-def _command(store, name, resume):
-    return [sys.executable, "-m", "lwail_cli", "--store", str(store), "--threads", "1", "expert", "train", "InvertedPendulum-v5",
-            "--steps", "2500", "--eval-every", "500", "--checkpoint-every", "200", "--name", name, "--set", "td3.random_steps=300",
-            "--set", "td3.learning_starts=300", "--set", "td3.hidden=(32,32)", "--set", "td3.batch_size=64"] + (["--resume"] if resume else [])
+def _prepare(store):
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5", name="demos")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=2000), seed=0, name="data")
+    identity = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, name="identity", device="cpu")
+    warm = cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(16, 16)), steps=5)
+    warmup.warmup(store, embedding_ref=identity.ref, demos_ref=bundled.ref, config=warm, seed=0, name="disc", device="cpu")
+
+
+def _run(root, args, name, resume):
+    command = [sys.executable, "-m", "lwail_cli", "--store", str(root), "--threads", "1", *args, "--name", name]
+    return command + (["--resume"] if resume else [])
 
 
 @pytest.mark.slow
-def test_random_sigkills_then_resume_give_the_unkilled_result(tmp_path):
+@pytest.mark.parametrize("stage", list(STAGES))
+def test_random_sigkills_then_resume_give_the_unkilled_result(tmp_path, stage):
+    kind, args, compared = STAGES[stage]
     root = tmp_path / "store"
-    subprocess.run(_command(root, "straight", False), check=True, capture_output=True)
     store = Store(root)
+    _prepare(store)
+    subprocess.run(_run(root, args, "straight", False), check=True, capture_output=True)
     rng = np.random.default_rng(0)
     kills = 0
-    for delay in rng.uniform(2.0, 6.0, size=4):
-        process = subprocess.Popen(_command(root, "killed", store.has_checkpoint("policy", "killed")),
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    for delay in rng.uniform(2.5, 6.0, size=4):
+        process = subprocess.Popen(_run(root, args, "killed", store.has_checkpoint(kind, "killed")), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         time.sleep(delay)
         if process.poll() is None:
             process.send_signal(signal.SIGKILL)
             kills += 1
         process.wait()
-    finish = subprocess.run(_command(root, "killed", store.has_checkpoint("policy", "killed")), capture_output=True, text=True)
+    finish = subprocess.run(_run(root, args, "killed", store.has_checkpoint(kind, "killed")), capture_output=True, text=True)
     assert finish.returncode == 0, finish.stderr
     assert kills >= 2  # the test must have killed something
-    straight, killed = store.resolve("straight", "policy"), store.resolve("killed", "policy")
-    assert straight.file("final_actor.safetensors").read_bytes() == killed.file("final_actor.safetensors").read_bytes()
-    assert not (root / ".runs" / "policy" / "killed").exists() and not list((root / ".tmp").iterdir())
+    straight, killed = store.resolve("straight", kind), store.resolve("killed", kind)
+    assert straight.file(compared).read_bytes() == killed.file(compared).read_bytes()
+    assert not (root / ".runs" / kind / "killed").exists() and not list((root / ".tmp").iterdir())
