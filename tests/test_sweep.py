@@ -69,3 +69,10 @@ def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli
 
     rebuilt = cli("report", "smoke")
     assert rebuilt.exit_code == 0 and "| InvertedPendulum-v5 | identity |" in rebuilt.output
+
+
+@pytest.mark.parametrize("plan", sorted(PLANS.glob("*.toml")), ids=lambda path: path.name)
+def test_the_shipped_plans_are_valid(plan):
+    from lwail_cli.stages.sweep import read_plan
+
+    assert read_plan(plan).runs  # every task has bundled demos, every override is a valid setting
