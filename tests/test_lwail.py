@@ -346,3 +346,5 @@ def test_a_replay_buffer_that_cannot_fit_is_refused_before_anything_runs(cli, st
     assert result.exit_code == 1, result.output
     assert "a replay buffer of 10000000 transitions needs 1.0 GiB of memory, 0.5 GiB is available" in result.output
     assert committed_versions(store) == [] and not store.has_checkpoint("policy", "huge")
+    result = cli("collect", "Hopper-v5", "--transitions", "10000000")
+    assert result.exit_code == 1 and "collecting 10000000 transitions needs" in result.output and committed_versions(store) == []

@@ -11,7 +11,7 @@ from ..config import CollectConfig
 from ..data import Episode, write_minari
 from ..envs import describe_env, make_env
 from ..rollout import rollout
-from .shared import Progress, default_name, read_external
+from .shared import Progress, default_name, read_external, require_memory
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
@@ -21,6 +21,8 @@ def collect(
     store: Store, *, env_id: str, config: CollectConfig, seed: int, name: str | None = None, on_progress: Progress | None = None
 ) -> Artifact:
     info = describe_env(env_id)
+    # recorded steps are per-step arrays in Python lists, then copied into Minari's format: ~3 float64 copies + object overhead
+    require_memory(config.transitions * (3 * 8 * (info.obs_dim + info.act_dim + 1) + 400), f"collecting {config.transitions} transitions")
     episodes = rollout(env_id, None, [seed], record=True, transitions=config.transitions,
                        on_step=None if on_progress is None else lambda done: on_progress(done, {})).episodes
     name = name or default_name(env_id, "random")
