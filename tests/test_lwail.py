@@ -119,14 +119,20 @@ def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
     assert straight.metrics["return_mean"] == resumed.metrics["return_mean"]
 
 
+def _pendulum_chain(store, transitions, icvf, warmup_steps):
+    """Bundled InvertedPendulum demos, random data, an ICVF embedding and a warmed-up discriminator (seed 0, CPU)."""
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=transitions), seed=0)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=torch.device("cpu"))
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=warmup_steps),
+                         seed=0, device=torch.device("cpu"))
+    return bundled, data, embedding, disc
+
+
 @pytest.mark.slow
 def test_lwail_imitates_inverted_pendulum_from_one_state_only_trajectory(store):
     device = torch.device("cpu")
-    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
-    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=3000), seed=0)
-    icvf = cfg.ICVFConfig(steps=300, hidden=(64,), embedding_dim=64, log_every=300)
-    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=device)
-    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=200), seed=0, device=device)
+    bundled, data, embedding, disc = _pendulum_chain(store, 3000, cfg.ICVFConfig(steps=300, hidden=(64,), embedding_dim=64, log_every=300), 200)
     assert disc.metrics["reward_expert_mean"] > disc.metrics["reward_random_mean"]
     config = cfg.ImitationConfig(
         td3=cfg.TD3Config(random_steps=2000, learning_starts=2000),
@@ -287,12 +293,7 @@ def test_a_policy_loads_in_python_and_predicts_like_sb3(store):
 def test_embeddings_rewards_and_episodes_load_in_python(store):
     import lwail_cli
 
-    device = torch.device("cpu")
-    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
-    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=400), seed=0)
-    icvf = cfg.ICVFConfig(steps=20, hidden=(16,), embedding_dim=8, log_every=20)
-    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=device)
-    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=5), seed=0, device=device)
+    bundled, data, embedding, disc = _pendulum_chain(store, 400, cfg.ICVFConfig(steps=20, hidden=(16,), embedding_dim=8, log_every=20), 5)
 
     expert = lwail_cli.load_episodes(bundled.ref, store=store.root)
     with np.load(demos.bundled_demos_path("InvertedPendulum-v5")) as shipped:
