@@ -9,6 +9,14 @@ import pytest
 from conftest import committed_versions
 
 PLANS = Path(__file__).resolve().parents[1] / "plans"
+VARIANT_PLAN = '''name = "x"
+tasks = ["InvertedPendulum-v5"]
+seeds = [0]
+embeddings = ["icvf", "plain-phi"]
+[variants.plain-phi]
+kind = "icvf"
+pretrain-icvf = ["icvf.layer_norm=false"]
+'''
 
 
 @pytest.mark.parametrize(
@@ -24,6 +32,12 @@ PLANS = Path(__file__).resolve().parents[1] / "plans"
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\npretrain-icvf = ["kind=identity"]', "comes from 'embeddings'"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\ntrain = ["steps=1"]', "[set] may hold lists"),
         ('name = "x"\ntasks = [', "is not valid TOML"),
+        (VARIANT_PLAN.replace('[variants.plain-phi]', '[variants.icvf]'), "would shadow the embedding kind icvf"),
+        (VARIANT_PLAN.replace('kind = "icvf"', 'kind = "pca"'), "needs kind = one of ['icvf', 'identity']"),
+        (VARIANT_PLAN + 'collect = ["transitions=5"]', "[variants.plain-phi] may hold lists of field=value for the stages ['pretrain-icvf'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"icvf.layer_norm=maybe"'), "--set icvf.layer_norm: cannot read 'maybe'"),
+        (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
     ],
 )
 def test_a_bad_plan_is_one_clear_line_before_anything_runs(cli, store, tmp_path, text, message):
@@ -76,3 +90,33 @@ def test_the_shipped_plans_are_valid(plan):
     from lwail_cli.stages.sweep import read_plan
 
     assert read_plan(plan).runs  # every task has bundled demos, every override is a valid setting
+
+
+def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_data(store):
+    import tomllib
+
+    import torch
+
+    from lwail_cli.stages.sweep import bundled_demos, collect_task, plan_from_dict, run_task
+
+    raw = tomllib.loads((PLANS / "smoke.toml").read_text())
+    raw.update(name="ab", seeds=[0], embeddings=["icvf", "plain-phi"],
+               variants={"plain-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=false"], "imitate": ["td3.gamma=0.9"]}})
+    plan = plan_from_dict(raw, "test plan")
+    assert [run.kind for run in plan.runs] == ["icvf", "plain-phi"]
+    assert plan_from_dict(plan.to_dict(), "a report's record") == plan  # a report rebuilds the same plan
+
+    threads = torch.get_num_threads()
+    try:  # the Ray tasks' bodies, in this process
+        demos = bundled_demos(store, plan, "InvertedPendulum-v5").ref
+        data = collect_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0)
+        results = {kind: run_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0, kind, demos, data) for kind in plan.kinds}
+    finally:
+        torch.set_num_threads(threads)
+    embeddings = {kind: store.resolve(f"ab-invertedpendulum-v5-s0-{kind}", "embedding") for kind in plan.kinds}
+    assert {kind: e.config["icvf"]["layer_norm"] for kind, e in embeddings.items()} == {"icvf": True, "plain-phi": False}
+    assert {e.config["type"] for e in embeddings.values()} == {"icvf"}
+    policies = {kind: store.resolve(results[kind]["policy"], "policy") for kind in plan.kinds}
+    assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "plain-phi": 0.9}
+    assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
+    assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms

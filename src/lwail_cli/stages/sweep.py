@@ -1,6 +1,8 @@
-"""`lwail sweep`: tasks × seeds × embedding kinds, each run the usual chain, as Ray tasks of one CPU each.
+"""`lwail sweep`: tasks × seeds × embeddings, each run the usual chain, as Ray tasks of one CPU each.
 
-A plan (TOML) names the grid and each stage's ``--set`` overrides. Stages that several runs share are made once:
+A plan (TOML) names the grid and each stage's ``--set`` overrides. An entry of ``embeddings`` is a kind (icvf,
+identity) or the name of a variant, a ``[variants.NAME]`` table giving its kind and its own overrides of the
+stages after collect (an ablation such as φ without LayerNorm is one more arm of the grid). Stages that several runs share are made once:
 a task's bundled demos, and the random data set I of a task and seed (read by every embedding kind of that
 seed). Every artifact is named after the sweep, and each finished stage is recorded in the store's ledger under a
 fingerprint of its stage, name, config, seed and parents: a restarted sweep skips what is done (its artifact
@@ -12,7 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
@@ -32,7 +34,8 @@ if TYPE_CHECKING:
 
 PLAN_STAGES = ("collect", "pretrain-icvf", "warmup-disc", "imitate", "eval")
 EMBEDDINGS = ("icvf", "identity")
-PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set"}
+PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants"}
+VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
 
 
 @dataclass(frozen=True)
@@ -51,16 +54,23 @@ class SweepPlan:
     name: str
     tasks: tuple[str, ...]
     seeds: tuple[int, ...]
-    kinds: tuple[str, ...]
+    kinds: tuple[str, ...]  # the grid's embedding arms: icvf, identity or a variant's name
     overrides: dict  # stage -> tuple of section.field=value assignments
+    variants: dict = field(default_factory=dict)  # name -> {"kind": icvf|identity, stage: assignments}
 
     @property
     def runs(self) -> list[SweepRun]:
         return [SweepRun(task, seed, kind) for task in self.tasks for seed in self.seeds for kind in self.kinds]
 
-    def config(self, stage: str, *fixed: str):
-        """The stage's validated config: defaults, then the plan's overrides, then what the grid fixes."""
-        return cfg.with_overrides(cfg.STAGES[stage](), [*self.overrides.get(stage, ()), *fixed])
+    def embedding_kind(self, arm: str) -> str:
+        return self.variants[arm]["kind"] if arm in self.variants else arm
+
+    def config(self, stage: str, arm: str | None = None):
+        """The stage's validated config: defaults, the plan's overrides, the arm's variant overrides, and for
+        pretrain-icvf the arm's embedding kind."""
+        variant = self.variants.get(arm, {})
+        fixed = [f"kind={self.embedding_kind(arm)}"] if stage == "pretrain-icvf" and arm is not None else []
+        return cfg.with_overrides(cfg.STAGES[stage](), [*self.overrides.get(stage, ()), *variant.get(stage, ()), *fixed])
 
     def names(self, run: SweepRun) -> dict[str, str]:
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
@@ -69,7 +79,9 @@ class SweepPlan:
 
     def to_dict(self) -> dict:
         return {"name": self.name, "tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds),
-                "set": {stage: list(assignments) for stage, assignments in self.overrides.items()}}
+                "set": {stage: list(assignments) for stage, assignments in self.overrides.items()},
+                "variants": {name: {key: value if key == "kind" else list(value) for key, value in variant.items()}
+                             for name, variant in self.variants.items()}}
 
 
 def read_plan(path: Path) -> SweepPlan:
@@ -95,25 +107,49 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
         raise LwailError(f"{source}: 'tasks' must be a non-empty list of distinct env ids")
     if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
         raise LwailError(f"{source}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
-    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS):
-        raise LwailError(f"{source}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)}")
-    overrides = raw.get("set", {})
-    if not isinstance(overrides, dict) or not set(overrides) <= set(PLAN_STAGES):
-        raise LwailError(f"{source}: [set] may hold lists of field=value for the stages {list(PLAN_STAGES)}")
-    for stage, assignments in overrides.items():
-        if not isinstance(assignments, list) or not all(isinstance(a, str) for a in assignments):
-            raise LwailError(f"{source}: [set] {stage} must be a list of \"field=value\" strings")
-        if stage == "pretrain-icvf" and any(a.partition("=")[0].strip() == "kind" for a in assignments):
-            raise LwailError(f"{source}: the embedding kind comes from 'embeddings', not from [set] pretrain-icvf")
-    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), {stage: tuple(a) for stage, a in overrides.items()})
+    variants = _read_variants(raw.get("variants", {}), source)
+    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS) | set(variants):
+        raise LwailError(f"{source}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)} and the plan's [variants]")
+    unused = sorted(set(variants) - set(kinds))
+    if unused:
+        raise LwailError(f"{source}: [variants] {', '.join(unused)} defined but not listed in 'embeddings'")
+    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
     for stage in PLAN_STAGES:
-        plan.config(stage)
+        for arm in plan.kinds:
+            plan.config(stage, arm)
     for run in plan.runs:
         for artifact_name in plan.names(run).values():
             check_name(artifact_name)
     return plan
+
+
+def _read_overrides(table, stages: tuple[str, ...], where: str) -> dict[str, tuple[str, ...]]:
+    if not isinstance(table, dict) or not set(table) <= set(stages):
+        raise LwailError(f"{where} may hold lists of field=value for the stages {list(stages)}")
+    for stage, assignments in table.items():
+        if not isinstance(assignments, list) or not all(isinstance(a, str) for a in assignments):
+            raise LwailError(f"{where} {stage} must be a list of \"field=value\" strings")
+        if stage == "pretrain-icvf" and any(a.partition("=")[0].strip() == "kind" for a in assignments):
+            raise LwailError(f"{where}: the embedding kind comes from 'embeddings' (or a variant's kind), not from pretrain-icvf")
+    return {stage: tuple(assignments) for stage, assignments in table.items()}
+
+
+def _read_variants(table, source: str) -> dict[str, dict]:
+    if not isinstance(table, dict):
+        raise LwailError(f"{source}: [variants] must hold one table per variant, [variants.NAME]")
+    variants = {}
+    for name, variant in table.items():
+        where = f"{source}: [variants.{name}]"
+        if name in EMBEDDINGS:
+            raise LwailError(f"{where} would shadow the embedding kind {name}; give the variant another name")
+        check_name(name)
+        if not isinstance(variant, dict) or variant.get("kind") not in EMBEDDINGS:
+            raise LwailError(f"{where} needs kind = one of {list(EMBEDDINGS)}")
+        stages = {key: value for key, value in variant.items() if key != "kind"}
+        variants[name] = {"kind": variant["kind"], **_read_overrides(stages, VARIANT_STAGES, where)}
+    return variants
 
 
 def _unique_list(value, kind: type) -> bool:
@@ -155,17 +191,17 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     run, device = SweepRun(task, seed, kind), torch.device("cpu")
     names = plan.names(run)
     demos, data = store.resolve(demos_ref, "demos"), store.resolve(data_ref, "dataset")
-    embed_config = plan.config("pretrain-icvf", f"kind={kind}")
+    embed_config = plan.config("pretrain-icvf", kind)
     embedding = _once(store, plan, "embedding", names["embedding"], _record(embed_config, seed, data, demos),
                       lambda: embed(store, data_ref=data.ref, config=embed_config, seed=seed, name=names["embedding"], device=device, demos_ref=demos.ref))
-    warmup_config = plan.config("warmup-disc")
+    warmup_config = plan.config("warmup-disc", kind)
     disc = _once(store, plan, "discriminator", names["disc"], _record(warmup_config, seed, embedding, demos),
                  lambda: warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=warmup_config, seed=seed, name=names["disc"], device=device))
-    imitation_config = plan.config("imitate")
+    imitation_config = plan.config("imitate", kind)
     policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
                    lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
                                    seed=seed, name=names["policy"], device=device, resume=store.has_checkpoint("policy", names["policy"])))
-    result = evaluate(store, policy_ref=policy.ref, config=plan.config("eval"), normalized=True)
+    result = evaluate(store, policy_ref=policy.ref, config=plan.config("eval", kind), normalized=True)
     return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
 
 
