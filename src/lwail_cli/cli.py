@@ -224,21 +224,24 @@ def demos_import(
     from_minari: Optional[str] = typer.Option(None, "--from-minari", help="A dataset id in the local Minari store."),
     from_file: Optional[Path] = typer.Option(None, "--from-file", help="A .npz with 'observations', 'episode_ends' (and optional 'returns')."),
     bundled: bool = typer.Option(False, "--bundled", help="The demos shipped with lwail for this env."),
+    from_imitation: Optional[Path] = typer.Option(
+        None, "--from-imitation", help="Trajectories saved by the imitation library (imitation.data.serialize.save: a folder, or its older .npz)."),
     from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
     episodes: int = typer.Option(cfg.RecordConfig.episodes, "--episodes", help="Episodes to roll out (--from-sb3)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
 ) -> None:
-    """Import state-only demonstrations: a local Minari dataset, a .npz, an SB3 model's rollouts, or the bundled set."""
-    if sum(map(bool, (bundled, from_sb3, from_minari or from_file))) > 1:
-        raise LwailError("give one source: --bundled, --from-sb3, --from-minari or --from-file")
+    """Import state-only demonstrations: a local Minari dataset, a .npz, imitation's trajectories, an SB3 model's
+    rollouts, or the bundled set."""
+    if sum(map(bool, (bundled, from_sb3, from_minari, from_file, from_imitation))) > 1:
+        raise LwailError("give one source: --bundled, --from-sb3, --from-minari, --from-file or --from-imitation")
     if bundled:
         say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
     elif from_sb3 is not None:
         config = cfg.RecordConfig(episodes=episodes)
         say_written(demos_stage.import_sb3_demos(store(), env_id=env_id, model=from_sb3, config=config, seed=seed, name=name))
     else:
-        say_written(demos_stage.import_demos(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file))
+        say_written(demos_stage.import_demos(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file, imitation=from_imitation))
 
 
 # ------------------------------------------------------------------------------ LWAIL stages

@@ -32,7 +32,7 @@ def collect(
 
 def import_dataset(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
     info = describe_env(env_id)
-    episodes, source, extra = read_external(info, minari_id, npz)
+    episodes, source, extra = read_external(info, minari_id=minari_id, npz=npz)
     name = name or default_name(env_id, "imported")
     for episode in episodes:  # a state-only file has neither; Minari's format needs both
         n = episode.length

@@ -52,9 +52,11 @@ def _record(store: Store, info: EnvInfo, act, config: RecordConfig, seed: int, n
     return _write_demos(store, name, info, episodes, played.returns, {"source": source, "episodes": config.episodes}, seed, parents)
 
 
-def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
+def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None,
+                 imitation: Path | None = None) -> Artifact:
+    """State-only episodes from a local Minari dataset, a .npz, or trajectories saved by the `imitation` library."""
     info = describe_env(env_id)
-    episodes, source, extra = read_external(info, minari_id, npz)
+    episodes, source, extra = read_external(info, minari_id=minari_id, npz=npz, imitation=imitation)
     returns = extra.pop("returns", None)
     if returns is None and all(e.rewards is not None for e in episodes):
         returns = [e.episode_return for e in episodes]

@@ -15,7 +15,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from .. import config as cfg
-from ..data import Episode, load_local_minari, read_minari_directory, read_npz, transition_pairs, validate_episodes
+from ..data import Episode, load_local_minari, read_imitation, read_minari_directory, read_npz, transition_pairs, validate_episodes
 from ..discriminator import Critic, transition_features
 from ..envs import EnvInfo, describe_env
 from ..errors import LwailError
@@ -309,10 +309,12 @@ def final_metrics(run: RunState) -> dict:
 
 
 # ------------------------------------------------------------------------------ external data
-def read_external(info: EnvInfo, minari_id: str | None, npz: Path | None) -> tuple[list[Episode], str, dict]:
-    """Episodes from a local Minari dataset or a .npz, checked against the env; plus Minari's refs."""
-    if (minari_id is None) == (npz is None):
-        raise LwailError("give exactly one of --from-minari DATASET_ID or --from-file FILE.npz")
+def read_external(info: EnvInfo, *, minari_id: str | None = None, npz: Path | None = None,
+                  imitation: Path | None = None) -> tuple[list[Episode], str, dict]:
+    """Episodes from a local Minari dataset, a .npz or imitation's trajectories, checked against the env; plus
+    Minari's refs and the file's returns."""
+    if sum(source is not None for source in (minari_id, npz, imitation)) != 1:
+        raise LwailError("give exactly one of --from-minari DATASET_ID, --from-file FILE.npz or --from-imitation PATH")
     extra: dict = {}
     if minari_id is not None:
         episodes, metadata = load_local_minari(minari_id)
@@ -324,11 +326,15 @@ def read_external(info: EnvInfo, minari_id: str | None, npz: Path | None) -> tup
                     raise LwailError(f"{source} has {key}={value!r}; expected a finite number")
                 extra[key] = float(value)
     else:
-        if not npz.is_file():
-            raise LwailError(f"no such file: {npz}")
-        episodes, returns = read_npz(npz)
-        source = f"file:{npz.name}"
-        if returns is not None:
-            extra["returns"] = [float(value) for value in returns]
+        path = npz if npz is not None else imitation
+        if not path.exists():
+            raise LwailError(f"no such file or folder: {path}")
+        if npz is not None:
+            episodes, returns = read_npz(npz)
+            if returns is not None:
+                extra["returns"] = [float(value) for value in returns]
+            source = f"file:{npz.name}"
+        else:
+            episodes, source = read_imitation(imitation), f"imitation:{imitation.name}"
     validate_episodes(episodes, info, source)
     return episodes, source, extra
