@@ -97,7 +97,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
 
     import torch
 
-    from lwail_cli.stages.sweep import bundled_demos, collect_task, plan_from_dict, run_task
+    from lwail_cli.stages.sweep import _live_status, bundled_demos, collect_task, plan_from_dict, run_task
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
     raw.update(name="ab", seeds=[0], embeddings=["icvf", "plain-phi"],
@@ -110,6 +110,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     try:  # the Ray tasks' bodies, in this process
         demos = bundled_demos(store, plan, "InvertedPendulum-v5").ref
         data = collect_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0)
+        assert _live_status(store, plan, plan.runs[0]) is None  # shown as queued
         results = {kind: run_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0, kind, demos, data) for kind in plan.kinds}
     finally:
         torch.set_num_threads(threads)
@@ -120,3 +121,4 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "plain-phi": 0.9}
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
+    assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600, normalized score ")

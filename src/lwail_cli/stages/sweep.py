@@ -256,12 +256,21 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
 
 
 def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
+    """The stage a run is in, from what it has written so far (None while nothing is)."""
+    names = plan.names(run)
     try:
-        curve, _ = read_curve(store, ref=plan.names(run)["policy"])
+        curve, _ = read_curve(store, ref=names["policy"])
     except LwailError:
-        return None
-    if curve.empty:
-        return None
-    last = curve.iloc[-1]
-    score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
-    return f"imitating: step {int(last['step'])}{score}"
+        curve = None
+    if curve is not None and not curve.empty:
+        last = curve.iloc[-1]
+        score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
+        return f"imitating: step {int(last['step'])}{score}"
+    for kind, artifact, line in (("discriminator", "disc", "imitating: before the first evaluation"),
+                                 ("embedding", "embedding", "warming up f")):
+        try:
+            store.resolve(names[artifact], kind)
+            return line
+        except LwailError:
+            pass
+    return "pre-training φ" if store.has_checkpoint("embedding", names["embedding"]) else None
