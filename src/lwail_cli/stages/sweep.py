@@ -2,9 +2,9 @@
 
 A plan (TOML) names the grid and each stage's ``--set`` overrides. An entry of ``embeddings`` is a kind (icvf,
 identity) or the name of a variant, a ``[variants.NAME]`` table giving its kind and its own overrides of the
-stages after collect (an ablation such as φ without LayerNorm is one more arm of the grid). Stages that several runs share are made once:
-a task's bundled demos, and the random data set I of a task and seed (read by every embedding kind of that
-seed). Every artifact is named after the sweep, and each finished stage is recorded in the store's ledger under a
+stages after collect (an ablation such as φ without LayerNorm is one more arm of the grid). Stages that several
+runs share are made once: a task's bundled demos, and the random data set I of a task and seed (read by every
+arm of that seed). Every artifact is named after the sweep, and each finished stage is recorded in the store's ledger under a
 fingerprint of its stage, name, config, seed and parents: a restarted sweep skips what is done (its artifact
 still there and intact) and resumes a killed ``imitate`` from its checkpoint.
 """
