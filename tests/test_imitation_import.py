@@ -68,6 +68,12 @@ def _bad_folder(tmp_path, change):
     return folder
 
 
+def _save_ragged(path):
+    datasets = pytest.importorskip("datasets")
+    datasets.Dataset.from_dict({"obs": [[[0.0, 1.0, 2.0, 3.0], [0.0, 1.0]]], "terminal": [False]}).save_to_disk(str(path))
+    return path
+
+
 @pytest.mark.parametrize(
     "make, message",
     [
@@ -77,6 +83,7 @@ def _bad_folder(tmp_path, change):
         (lambda tmp: _bad_folder(tmp, lambda f: (f / "state.json").write_text('{"_data_files": [{"filename": "../x.arrow"}]}')),
          "must name its data files inside the folder"),
         (lambda tmp: _bad_folder(tmp, lambda f: next(f.glob("*.arrow")).write_bytes(b"not arrow")), "has an unreadable data file"),
+        (lambda tmp: _save_ragged(tmp / "ragged"), "every trajectory's 'obs' must be a (T+1, obs_dim) table"),
         (lambda tmp: np.savez(tmp / "o.npz", obs=np.zeros((11, 4)), acts=np.zeros((8, 1)), terminal=np.array([True, False]),
                               indices=np.array([5])), "expected (N, obs_dim) 'obs' holding T+1 rows per trajectory"),
         (lambda tmp: np.savez(tmp / "o.npz", observations=np.zeros((10, 4))), "has no 'obs', 'acts', 'indices', 'terminal'"),

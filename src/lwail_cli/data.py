@@ -275,8 +275,11 @@ def _imitation_folder(path: Path) -> tuple[list[np.ndarray], list, list[np.ndarr
             raise LwailError(f"{path} has no {column!r} column (it has: {', '.join(table.column_names)}); is it imitation's trajectories?")
     if not pa.types.is_boolean(table.schema.field("terminal").type):
         raise LwailError(f"{path}: 'terminal' must be one bool per trajectory, got {table.schema.field('terminal').type}")
-    observations = [np.asarray(rows) for rows in table.column("obs").to_pylist()]
-    rewards = [np.asarray(rows) for rows in table.column("rews").to_pylist()] if "rews" in table.column_names else None
+    try:
+        observations = [np.asarray(rows) for rows in table.column("obs").to_pylist()]
+        rewards = [np.asarray(rows) for rows in table.column("rews").to_pylist()] if "rews" in table.column_names else None
+    except ValueError as exc:  # ragged rows
+        raise LwailError(f"{path}: every trajectory's 'obs' must be a (T+1, obs_dim) table and its 'rews' a list of numbers ({exc})") from None
     return observations, table.column("terminal").to_pylist(), rewards
 
 
