@@ -29,6 +29,7 @@ def seeded(cli, store, tmp_path):
         (("collect", "CartPole-v1"), "Discrete action space"),
         (("collect", "Hopper-v5", "--transitions", "0"), "collect.transitions must be at least 1"),
         (("collect", "Hopper-v5", "--from-minari", "mujoco/hopper/expert-v0"), "not in the local Minari store"),
+        (("collect", "Hopper-v5", "--from-minari", "a/b-v0", "--from-file", "x.npz"), "give one source: --from-minari or --from-file ("),
         (("expert", "train", "InvertedPendulum-v5", "--steps", "-5"), "train.steps must be at least 1"),
         (("expert", "train", "InvertedPendulum-v5", "--steps", "10", "--resume"), "no checkpoint"),
         (("expert", "record", "missing"), "no policy artifact named 'missing'"),

@@ -174,6 +174,8 @@ def collect(
     name: Optional[str] = NAME,
 ) -> None:
     """Collect state-only data from a uniformly random policy (or import it) as a Minari dataset."""
+    if from_minari and from_file:
+        raise LwailError("give one source: --from-minari or --from-file (neither: collect from a random policy)")
     if from_minari or from_file:
         artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
     else:
