@@ -1,6 +1,7 @@
 """What explains a run: critic diagnostics at every evaluation, a live curve, and the embedding's critic probe."""
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
@@ -99,3 +100,17 @@ def test_imitate_keeps_the_loss_form_the_critic_was_warmed_up_with(stages, cli):
                  "--set", "td3.random_steps=100", "--set", "td3.learning_starts=300", "--eval-every", "300", "--set", "train.eval_episodes=1")
     assert result.exit_code == 0, result.output
     assert store.resolve("invertedpendulum-v5-lwail", "policy").config["critic"]["tanh"] is False
+
+
+def test_pretraining_with_demos_logs_the_critic_probe_at_every_log_step(store):
+    bundled = demos.import_bundled_demos(store, env_id=ENV)
+    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=600), seed=0)
+    config = cfg.EmbedConfig(icvf=cfg.ICVFConfig(steps=30, batch_size=32, hidden=(16,), embedding_dim=8, log_every=10))
+    embedding = embed.embed(store, data_ref=data.ref, config=config, seed=0, device=torch.device("cpu"), demos_ref=bundled.ref)
+    log = pd.read_csv(embedding.file("loss.csv"))
+    assert log["step"].tolist() == [10, 20, 30]
+    assert log[["separation_auc", "progress_spearman"]].notna().all().all()
+    assert log["separation_auc"].between(0.0, 1.0).all()
+    final = log.iloc[-1]  # the last row probes the φ that was saved
+    assert final["separation_auc"] == pytest.approx(embedding.metrics["probe_separation_auc"])
+    assert final["progress_spearman"] == pytest.approx(embedding.metrics["probe_progress_spearman"])

@@ -206,7 +206,7 @@ def probe_critic_needs(encode: Callable[[torch.Tensor], torch.Tensor], expert: l
 @dataclass
 class ICVFResult:
     encoder: Encoder
-    log: pd.DataFrame  # step, loss, probe_latent
+    log: pd.DataFrame  # step, wall_time, loss, probe_latent (and separation_auc, progress_spearman given the expert)
     probe_latent: float
     probe_raw: float
 
@@ -220,9 +220,11 @@ def pretrain_icvf(
     on_progress: Callable[[int, float], None] | None = None,
     resume: dict | None = None,
     on_checkpoint: Callable[[dict], None] | None = None,
+    expert: list[Episode] | None = None,
 ) -> ICVFResult:
     """ICVF on the episodes; every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state, and
-    ``resume`` (such a state) continues bit for bit."""
+    ``resume`` (such a state) continues bit for bit. Given the ``expert`` episodes, every log row also probes what
+    the critic needs (``probe_critic_needs``), so one long run shows which budget φ needs."""
     torch.manual_seed(seed)
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     sampler = GoalSampler(train, config, torch.device(device))
@@ -242,7 +244,8 @@ def pretrain_icvf(
             span = config.log_every if step % config.log_every == 0 else step % config.log_every
             encoder = export_encoder(learner.model, obs_dim, config).cpu()
             loss = running.item() / span
-            rows.append({"step": step, "wall_time": time.perf_counter() - started, "loss": loss, "probe_latent": probe_spearman(encoder, held_out)})
+            rows.append({"step": step, "wall_time": time.perf_counter() - started, "loss": loss, "probe_latent": probe_spearman(encoder, held_out)}
+                        | ({} if expert is None else probe_critic_needs(encoder, expert, held_out)))
             running.zero_()
             if on_progress is not None:
                 on_progress(step, rows[-1]["loss"])

@@ -31,11 +31,12 @@ def embed(
     validate_episodes(episodes, info, f"dataset {dataset.ref}")
     name = name or default_name(info.id, config.kind)
     held_out = split_episodes(episodes, config.icvf.holdout_fraction, seed)[1]
+    expert = None if demos is None else load_demos(demos)[0]
 
     def critic_probe(encode, suffix: str) -> dict:
-        if demos is None:
+        if expert is None:
             return {}
-        found = probe_critic_needs(encode, load_demos(demos)[0], held_out)
+        found = probe_critic_needs(encode, expert, held_out)
         return {f"probe_{key}{suffix}": value for key, value in found.items()}
 
     raw = critic_probe(lambda x: x, "_raw")
@@ -52,7 +53,8 @@ def embed(
                                   {"config": record, "seed": seed, "env": info.id, "parents": [p.hash for p in parents]})
         result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
                                None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}),
-                               resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint)
+                               resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint,
+                               expert=expert)
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
             result.log.to_csv(writer.path("loss.csv"), index=False)
