@@ -119,7 +119,8 @@ def progress_bar(description: str, total: int):
 
     def report(done: int, shown: dict) -> None:
         if not bars:
-            bars.append(tqdm(total=total, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
+            # steps done before the bar appears (a resumed run's, or the first report's) are not counted in its rate
+            bars.append(tqdm(total=total, initial=done, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
         bars[0].update(done - bars[0].n)
         if shown:
             bars[0].set_postfix({key: _fmt(value) for key, value in shown.items() if "/" not in key}, refresh=False)
