@@ -122,3 +122,12 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
     assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600, normalized score ")
+
+    # a restart takes every finished stage from the ledger, the closing evaluation included
+    evals = policies["icvf"].file("evals.csv")
+    rows = evals.read_text()
+    try:
+        again = run_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0, "icvf", demos, data)
+    finally:
+        torch.set_num_threads(threads)
+    assert again == results["icvf"] and evals.read_text() == rows

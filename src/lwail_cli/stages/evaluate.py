@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import pandas as pd
+
 from ..config import EvalConfig
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
@@ -48,3 +50,15 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
     except OSError as exc:  # e.g. a policy shared read-only: the evaluation itself still counts
         not_logged = f"{exc.strerror or exc} ({exc.filename or policy.path})"
     return result | {"videos": videos, "not_logged": not_logged}
+
+
+def logged_normalized_evaluation(store: Store, *, policy_ref: str, config: EvalConfig) -> dict | None:
+    """The policy's latest normalized evaluation in ``evals.csv`` with these episodes and seed (None if there is none):
+    its rollouts are deterministic, so rerunning them only appends the same row again."""
+    policy = store.resolve(policy_ref, "policy")
+    if not policy.file("evals.csv").is_file():
+        return None
+    evals = pd.read_csv(policy.file("evals.csv"))
+    evals["normalized_score"] = pd.to_numeric(evals["normalized_score"], errors="coerce")
+    same = evals[(evals["episodes"] == config.episodes) & (evals["seed"] == config.seed) & evals["normalized_score"].notna()]
+    return None if same.empty else {"policy": policy.ref, **same.iloc[-1].drop("created").to_dict()}

@@ -25,7 +25,7 @@ from .collect import collect
 from .curve import read_curve
 from .demos import bundled_demos_path, import_bundled_demos
 from .embed import embed
-from .evaluate import evaluate
+from .evaluate import evaluate, logged_normalized_evaluation
 from .imitate import imitate
 from .warmup import warmup
 
@@ -201,7 +201,9 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
                    lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
                                    seed=seed, name=names["policy"], device=device, resume=store.has_checkpoint("policy", names["policy"])))
-    result = evaluate(store, policy_ref=policy.ref, config=plan.config("eval", kind), normalized=True)
+    eval_config = plan.config("eval", kind)  # a restart does not evaluate a finished run again
+    result = (logged_normalized_evaluation(store, policy_ref=policy.ref, config=eval_config)
+              or evaluate(store, policy_ref=policy.ref, config=eval_config, normalized=True))
     return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
 
 
