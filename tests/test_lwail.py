@@ -38,6 +38,15 @@ def test_icvf_latent_distance_tracks_time_better_than_raw_states():
     assert result.log["probe_latent"].iloc[-1] > result.log["probe_latent"].iloc[0]
 
 
+def test_how_often_icvf_logs_does_not_change_the_trained_embedding():
+    runs = [pretrain_icvf(chain_episodes(episodes=6, length=20), obs_dim=16,
+                          config=cfg.ICVFConfig(steps=40, batch_size=32, hidden=(16,), embedding_dim=8, log_every=every), seed=0)
+            for every in (5, 40)]
+    assert [len(run.log) for run in runs] == [8, 1]
+    for name, tensor in runs[0].encoder.state_dict().items():
+        assert torch.equal(tensor, runs[1].encoder.state_dict()[name]), name
+
+
 def test_goal_sampler_respects_trajectories_and_rewards():
     episodes = chain_episodes(episodes=5, length=10)
     sampler = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=0.0, p_goal_trajectory=1.0), torch.device("cpu"))

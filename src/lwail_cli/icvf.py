@@ -68,7 +68,8 @@ class Encoder(nn.Module):
 
 
 def export_encoder(model: ICVF, obs_dim: int, config: ICVFConfig) -> Encoder:
-    encoder = Encoder(obs_dim, config)
+    with torch.random.fork_rng(devices=[]):  # its throw-away initialization must not shift training's random stream
+        encoder = Encoder(obs_dim, config)
     member_zero = {name: tensor[0:1].detach().clone() for name, tensor in model.phi.state_dict().items()}
     encoder.net.load_state_dict(member_zero)
     return encoder.requires_grad_(False).eval()
