@@ -16,7 +16,7 @@ from .shared import lineage_demos, load_policy, now, policy_fn, reference_for_en
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from ..artifacts import Store
+    from ..artifacts import Artifact, Store
 
 
 def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None,
@@ -52,13 +52,19 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
     return result | {"videos": videos, "not_logged": not_logged}
 
 
+def normalized_evaluations(policy: Artifact) -> pd.DataFrame:
+    """The rows of the policy's ``evals.csv`` that carry a normalized score, oldest first (none: empty)."""
+    if not policy.file("evals.csv").is_file():
+        return pd.DataFrame(columns=["episodes", "seed", "normalized_score"])
+    evals = pd.read_csv(policy.file("evals.csv"))
+    evals["normalized_score"] = pd.to_numeric(evals["normalized_score"], errors="coerce")
+    return evals[evals["normalized_score"].notna()]
+
+
 def logged_normalized_evaluation(store: Store, *, policy_ref: str, config: EvalConfig) -> dict | None:
     """The policy's latest normalized evaluation in ``evals.csv`` with these episodes and seed (None if there is none):
     its rollouts are deterministic, so rerunning them only appends the same row again."""
     policy = store.resolve(policy_ref, "policy")
-    if not policy.file("evals.csv").is_file():
-        return None
-    evals = pd.read_csv(policy.file("evals.csv"))
-    evals["normalized_score"] = pd.to_numeric(evals["normalized_score"], errors="coerce")
-    same = evals[(evals["episodes"] == config.episodes) & (evals["seed"] == config.seed) & evals["normalized_score"].notna()]
+    evals = normalized_evaluations(policy)
+    same = evals[(evals["episodes"] == config.episodes) & (evals["seed"] == config.seed)]
     return None if same.empty else {"policy": policy.ref, **same.iloc[-1].drop("created").to_dict()}

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
+from .evaluate import normalized_evaluations
 from .plots import plot_bands
 
 if TYPE_CHECKING:
@@ -58,10 +59,7 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
 
 
 def _final_evaluation(policy: Artifact) -> float | None:
-    if not policy.file("evals.csv").is_file():
-        return None
-    evals = pd.read_csv(policy.file("evals.csv"))
-    scores = pd.to_numeric(evals["normalized_score"], errors="coerce").dropna()
+    scores = normalized_evaluations(policy)["normalized_score"]
     return float(scores.iloc[-1]) if len(scores) else None
 
 
