@@ -75,6 +75,7 @@ def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
 
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
+POLICY_NETWORKS = ("actor", "target")  # TD3's online actor and its Polyak-averaged target actor
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
 
 
@@ -110,6 +111,8 @@ class TrainConfig(Validated):
     eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
     eval_seed_offset: int = setting(10_000, "evaluation episodes use seeds run seed + this + 0..n-1", low=0, high=2**31)
     checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
+    policy: str = setting("actor", "the network evaluated and kept: the online actor, or target (its Polyak average)", choices=POLICY_NETWORKS)
+    evaluate_other: bool = setting(True, "also evaluate the network policy does not name on the same episodes (<name>_* columns)")
 
 
 @dataclass(frozen=True)

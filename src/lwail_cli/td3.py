@@ -61,11 +61,15 @@ class TD3:
         self.updates = 0
         self.last_critic_loss = torch.zeros((), device=self.device)
 
+    def network(self, which: str) -> Actor:
+        """The online actor (``"actor"``) or its Polyak average (``"target"``)."""
+        return {"actor": self.actor, "target": self.actor_target}[which]
+
     @torch.inference_mode()
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        """Deterministic action for one observation or a batch of them."""
+    def act(self, obs: np.ndarray, which: str = "actor") -> np.ndarray:
+        """Deterministic action of ``network(which)`` for one observation or a batch of them."""
         tensor = torch.as_tensor(obs, dtype=torch.float32, device=self.device)
-        return self.actor(tensor).cpu().numpy()
+        return self.network(which)(tensor).cpu().numpy()
 
     def update(self, batch: dict[str, torch.Tensor]) -> None:
         cfg = self.config

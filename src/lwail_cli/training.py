@@ -8,6 +8,7 @@ reports through callbacks and hands checkpoint state to a callback; it never pri
 from __future__ import annotations
 
 import time
+from functools import partial
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable, Protocol
 
@@ -15,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from .config import POLICY_NETWORKS
 from .envs import make_env
 from .rollout import rollout
 
@@ -63,18 +65,27 @@ class RunState:
     episode_returns: list[float] = field(default_factory=list)
     history: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
-    best_actor: dict | None = None  # the actor weights of the best evaluation so far
+    best_actor: dict | None = None  # the weights of the policy network (train.policy) at the best evaluation so far
     best_step: int = 0
     best_return: float = float("-inf")
 
 
-def evaluate_policy(agent: TD3, env_id: str, episodes: int, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
-    """True return (and score) of the deterministic actor, and the reward model's diagnostics on the same episodes."""
-    evaluation = rollout(env_id, agent.act, range(seed, seed + episodes), record=True)
+def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
+    """True return (and score) of the deterministic ``train.policy`` network, the reward model's diagnostics on the
+    same episodes and, with ``train.evaluate_other``, the other network's return (and score) on those episodes too."""
+    seeds = range(seed, seed + train.eval_episodes)
+    evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
     row = {"return_mean": float(evaluation.returns.mean()), "return_std": float(evaluation.returns.std())}
     if reference is not None:
         row["normalized_score"] = reference.normalize(row["return_mean"])
-    return row | reward_model.metrics(evaluation)
+    row |= reward_model.metrics(evaluation)
+    if train.evaluate_other:
+        other = next(name for name in POLICY_NETWORKS if name != train.policy)
+        returns = rollout(env_id, partial(agent.act, which=other), seeds).returns
+        row[f"{other}_return_mean"] = float(returns.mean())
+        if reference is not None:
+            row[f"{other}_normalized_score"] = reference.normalize(row[f"{other}_return_mean"])
+    return row
 
 
 def _env_state(env: gym.Env) -> dict:
@@ -157,9 +168,9 @@ def train_td3(
     def evaluate_now() -> None:
         run.wall_time = time.perf_counter() - started
         row = {"step": run.step, "wall_time": run.wall_time}
-        row.update(evaluate_policy(agent, env_id, train.eval_episodes, seed + train.eval_seed_offset, reference, reward_model))
+        row.update(evaluate_policy(agent, train, env_id, seed + train.eval_seed_offset, reference, reward_model))
         if run.best_actor is None or row["return_mean"] > run.best_return:
-            run.best_actor = {k: v.detach().clone() for k, v in agent.actor.state_dict().items()}
+            run.best_actor = {k: v.detach().clone() for k, v in agent.network(train.policy).state_dict().items()}
             run.best_step, run.best_return = run.step, row["return_mean"]
         run.history.append(row)
         if on_evaluation is not None:

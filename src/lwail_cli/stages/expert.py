@@ -20,7 +20,7 @@ def train_expert(
     def write(writer, result, agent, rewards) -> None:
         # an expert may keep its best evaluation: it trains on the true reward anyway
         save_weights(writer.path("actor.safetensors"), result.best_actor)
-        save_weights(writer.path("final_actor.safetensors"), agent.actor.state_dict())
+        save_weights(writer.path("final_actor.safetensors"), agent.network(config.train.policy).state_dict())
         writer.metrics.update({"actor": f"best evaluation, at step {result.best_step}", "best_return_mean": result.best_return})
 
     run = PolicyRun(

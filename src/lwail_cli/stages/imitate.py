@@ -66,7 +66,7 @@ def imitate(
                                  random_features=pair_features(encoder, *random_states, device))
 
     def write(writer, result, agent, rewards: AdversarialReward) -> None:
-        save_weights(writer.path("actor.safetensors"), agent.actor.state_dict())
+        save_weights(writer.path("actor.safetensors"), agent.network(config.train.policy).state_dict())
         save_weights(writer.path("critic.safetensors"), rewards.trainer.critic.state_dict())
         plot_run(pd.DataFrame(result.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"), f"LWAIL on {env_id}")
 

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..config import POLICY_NETWORKS
+
 REWARD_COLUMNS = {  # column -> legend
     "reward_expert_mean": "σ(−f) on expert pairs",
     "pseudo_reward_mean": "σ(−f) on the latest policy pairs",
@@ -30,7 +32,12 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     rewards = [column for column in REWARD_COLUMNS if column in history]
     fig, axes = plt.subplots(2 if rewards else 1, 1, figsize=(7, 6 if rewards else 4), sharex=True, squeeze=False)
     top = axes[0, 0]
-    top.plot(history["step"], history[score], marker="o", markersize=3)
+    top.plot(history["step"], history[score], marker="o", markersize=3, label="kept policy")
+    others = [(name, f"{name}_{score}") for name in POLICY_NETWORKS if f"{name}_{score}" in history]
+    for name, column in others:  # the network train.policy does not name, evaluated on the same episodes
+        top.plot(history["step"], history[column], linestyle="--", alpha=0.7, label=f"{name} network (not kept)")
+    if others:
+        top.legend(fontsize=8)
     top.set(ylabel=score.replace("_", " "), title=title)
     top.grid(alpha=0.3)
     if rewards:

@@ -12,6 +12,7 @@ still there and intact) and resumes a killed ``imitate`` from its checkpoint.
 from __future__ import annotations
 
 import hashlib
+import os
 import json
 import tomllib
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ if TYPE_CHECKING:
 
 PLAN_STAGES = ("collect", "pretrain-icvf", "warmup-disc", "imitate", "eval")
 EMBEDDINGS = ("icvf", "identity")
-PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants"}
+PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants", "threads"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
 
 
@@ -57,6 +58,7 @@ class SweepPlan:
     kinds: tuple[str, ...]  # the grid's embedding arms: icvf, identity or a variant's name
     overrides: dict  # stage -> tuple of section.field=value assignments
     variants: dict = field(default_factory=dict)  # name -> {"kind": icvf|identity, stage: assignments}
+    threads: int = 1  # CPUs (Ray) and torch threads per run: 1 when runs share the cores, more for a lone run
 
     @property
     def runs(self) -> list[SweepRun]:
@@ -81,7 +83,7 @@ class SweepPlan:
         return {"name": self.name, "tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds),
                 "set": {stage: list(assignments) for stage, assignments in self.overrides.items()},
                 "variants": {name: {key: value if key == "kind" else list(value) for key, value in variant.items()}
-                             for name, variant in self.variants.items()}}
+                             for name, variant in self.variants.items()}, "threads": self.threads}
 
 
 def read_plan(path: Path) -> SweepPlan:
@@ -113,7 +115,11 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
     unused = sorted(set(variants) - set(kinds))
     if unused:
         raise LwailError(f"{source}: [variants] {', '.join(unused)} defined but not listed in 'embeddings'")
-    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants)
+    threads = raw.get("threads", 1)
+    if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= 256:
+        raise LwailError(f"{source}: 'threads' must be an integer from 1 to 256 (CPUs per run), got {threads!r}")
+    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"),
+                     variants, threads)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
     for stage in PLAN_STAGES:
@@ -214,8 +220,9 @@ def _record(config, seed: int, *parents: Artifact) -> dict:
 def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
     import torch
 
-    torch.set_num_threads(1)  # one CPU per task: two multi-threaded torch processes per core run 3-4x slower
-    return Store(root), plan_from_dict(plan_dict, "the sweep plan")
+    plan = plan_from_dict(plan_dict, "the sweep plan")
+    torch.set_num_threads(plan.threads)  # as many threads as Ray CPUs: two multi-threaded torch processes per core run 3-4x slower
+    return Store(root), plan
 
 
 # ------------------------------------------------------------------------------ the driver
@@ -228,10 +235,13 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     except ImportError:
         raise LwailError('lwail sweep runs on Ray, which is not installed: pip install "lwail[sweep]"') from None
     root, plan_dict = str(store.root.resolve()), plan.to_dict()
+    cores = os.cpu_count() or 1
+    if address is None and plan.threads > cores:  # Ray would queue the runs forever
+        raise LwailError(f"the plan gives each run {plan.threads} threads; this machine has {cores} cores")
     demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
     ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
-        collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=1, max_retries=0)(run_task)
+        collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t in plan.tasks for s in plan.seeds}
         pending = {run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)]): r for r in plan.runs}
         status = {r.label: "queued" for r in plan.runs}
