@@ -114,3 +114,31 @@ def test_pretraining_with_demos_logs_the_critic_probe_at_every_log_step(store):
     final = log.iloc[-1]  # the last row probes the φ that was saved
     assert final["separation_auc"] == pytest.approx(embedding.metrics["probe_separation_auc"])
     assert final["progress_spearman"] == pytest.approx(embedding.metrics["probe_progress_spearman"])
+
+
+def test_imitate_writes_the_network_train_policy_names(stages):
+    """Killed after its 500-step checkpoint and ended there (--steps 500): the artifact's actor is the checkpoint's target actor."""
+    store, device, bundled, embedding = stages
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=5), seed=0, device=device)
+    td3 = cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64)
+    run = dict(env_id=ENV, demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, seed=0, device=device, name="run")
+
+    def config(steps):
+        train = cfg.TrainConfig(steps=steps, eval_every=500, eval_episodes=2, checkpoint_every=500, policy="target")
+        return cfg.ImitationConfig(td3=td3, train=train, update_every=400, update_steps=2)
+
+    def kill(step, shown):  # progress is reported every 500 steps: the last report, before the artifact is written
+        if step == 1000:
+            raise Killed
+
+    with pytest.raises(Killed):
+        imitate.imitate(store, config=config(1000), on_progress=kill, **run)
+    agent = store.load_checkpoint("policy", "run")["agent"]
+    finished = imitate.imitate(store, config=config(500), resume=True, **run)
+    from safetensors.torch import load_file
+
+    written = load_file(finished.file("actor.safetensors"))
+    assert all(torch.equal(written[k], agent["actor_target"][k]) for k in written)
+    assert not torch.equal(written["net.0.weight"], agent["actor"]["net.0.weight"])
+    curve = pd.read_csv(finished.file("learning_curve.csv"))
+    assert curve[["normalized_score", "actor_normalized_score"]].notna().all().all()

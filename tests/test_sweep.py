@@ -38,6 +38,9 @@ pretrain-icvf = ["icvf.layer_norm=false"]
         (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
         (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"icvf.layer_norm=maybe"'), "--set icvf.layer_norm: cannot read 'maybe'"),
         (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 0', "'threads' must be an integer from 1 to 256"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = "2"', "'threads' must be an integer from 1 to 256"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 256', "the plan gives each run 256 threads; this machine has"),
     ],
 )
 def test_a_bad_plan_is_one_clear_line_before_anything_runs(cli, store, tmp_path, text, message):

@@ -71,3 +71,28 @@ def test_td3_learns_inverted_pendulum():
     # holding the cart still keeps the pole up ~24 steps; a uniformly random policy ~4
     still = rollout("InvertedPendulum-v5", lambda obs: np.zeros((len(obs), 1), np.float32), range(10_000, 10_005)).returns.mean()
     assert run.history[-1]["return_mean"] > 1.5 * still > 6 * random_policy_return("InvertedPendulum-v5"), run.history
+
+
+@pytest.mark.parametrize("kept, other", [("target", "actor"), ("actor", "target")])
+def test_the_kept_network_is_evaluated_and_the_other_on_the_same_episodes(kept, other):
+    env = describe_env("InvertedPendulum-v5")
+    td3 = TD3Config(hidden=(16,), random_steps=300, learning_starts=64, batch_size=64)
+    train = TrainConfig(steps=600, eval_every=600, eval_episodes=3, policy=kept)
+    torch.manual_seed(0)
+    agent = TD3(env, td3)
+    run = train_td3("InvertedPendulum-v5", agent, ReplayBuffer(600, env.obs_dim, env.act_dim), td3, train, seed=0)
+    seeds = range(train.eval_seed_offset, train.eval_seed_offset + 3)
+    row = run.history[-1]
+    assert row["return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=kept), seeds).returns.mean()
+    assert row[f"{other}_return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=other), seeds).returns.mean()
+    kept_weights, other_weights = agent.network(kept).state_dict(), agent.network(other).state_dict()
+    assert all(torch.equal(run.best_actor[k], kept_weights[k]) for k in kept_weights)
+    assert not torch.equal(kept_weights["net.0.weight"], other_weights["net.0.weight"])  # the target trails the actor
+
+
+def test_without_evaluate_other_only_the_kept_network_is_evaluated():
+    env = describe_env("InvertedPendulum-v5")
+    td3 = TD3Config(hidden=(16,), random_steps=100, learning_starts=64, batch_size=64)
+    train = TrainConfig(steps=100, eval_every=100, eval_episodes=1, evaluate_other=False)
+    run = train_td3("InvertedPendulum-v5", TD3(env, td3), ReplayBuffer(100, env.obs_dim, env.act_dim), td3, train, seed=0)
+    assert not any(column.startswith(("actor_", "target_")) for column in run.history[-1])
