@@ -12,8 +12,8 @@ still there and intact) and resumes a killed ``imitate`` from its checkpoint.
 from __future__ import annotations
 
 import hashlib
-import os
 import json
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
