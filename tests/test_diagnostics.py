@@ -116,7 +116,7 @@ def test_pretraining_with_demos_logs_the_critic_probe_at_every_log_step(store):
     assert final["progress_spearman"] == pytest.approx(embedding.metrics["probe_progress_spearman"])
 
 
-def test_imitate_writes_the_network_train_policy_names(stages):
+def test_imitate_writes_the_target_actor_by_default(stages):
     """Killed after its 500-step checkpoint and ended there (--steps 500): the artifact's actor is the checkpoint's target actor."""
     store, device, bundled, embedding = stages
     disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, config=cfg.WarmupConfig(steps=5), seed=0, device=device)
@@ -124,7 +124,7 @@ def test_imitate_writes_the_network_train_policy_names(stages):
     run = dict(env_id=ENV, demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, seed=0, device=device, name="run")
 
     def config(steps):
-        train = cfg.TrainConfig(steps=steps, eval_every=500, eval_episodes=2, checkpoint_every=500, policy="target")
+        train = cfg.TrainConfig(steps=steps, eval_every=500, eval_episodes=2, checkpoint_every=500)  # policy: target by default
         return cfg.ImitationConfig(td3=td3, train=train, update_every=400, update_steps=2)
 
     def kill(step, shown):  # progress is reported every 500 steps: the last report, before the artifact is written

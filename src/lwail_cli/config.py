@@ -111,7 +111,7 @@ class TrainConfig(Validated):
     eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
     eval_seed_offset: int = setting(10_000, "evaluation episodes use seeds run seed + this + 0..n-1", low=0, high=2**31)
     checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
-    policy: str = setting("actor", "the network evaluated and kept: the online actor, or target (its Polyak average)", choices=POLICY_NETWORKS)
+    policy: str = setting("target", "the network evaluated and kept: target (the actor's Polyak average; docs/algorithm.md) or actor (the online one)", choices=POLICY_NETWORKS)
     evaluate_other: bool = setting(True, "also evaluate the network policy does not name on the same episodes (<name>_* columns)")
 
 
