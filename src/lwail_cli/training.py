@@ -8,8 +8,8 @@ reports through callbacks and hands checkpoint state to a callback; it never pri
 from __future__ import annotations
 
 import time
-from functools import partial
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING, Callable, Protocol
 
 import gymnasium as gym
@@ -75,17 +75,18 @@ def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, refe
     same episodes and, with ``train.evaluate_other``, the other network's return (and score) on those episodes too."""
     seeds = range(seed, seed + train.eval_episodes)
     evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
-    row = {"return_mean": float(evaluation.returns.mean()), "return_std": float(evaluation.returns.std())}
-    if reference is not None:
-        row["normalized_score"] = reference.normalize(row["return_mean"])
-    row |= reward_model.metrics(evaluation)
+    row = _scores(evaluation.returns, reference, "", std=True) | reward_model.metrics(evaluation)
     if train.evaluate_other:
         other = next(name for name in POLICY_NETWORKS if name != train.policy)
-        returns = rollout(env_id, partial(agent.act, which=other), seeds).returns
-        row[f"{other}_return_mean"] = float(returns.mean())
-        if reference is not None:
-            row[f"{other}_normalized_score"] = reference.normalize(row[f"{other}_return_mean"])
+        row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds).returns, reference, f"{other}_")
     return row
+
+
+def _scores(returns: np.ndarray, reference: Reference | None, prefix: str, std: bool = False) -> dict[str, float]:
+    """``<prefix>return_mean`` (and ``return_std``) and, given a reference, ``<prefix>normalized_score``."""
+    mean = float(returns.mean())
+    row = {f"{prefix}return_mean": mean} | ({f"{prefix}return_std": float(returns.std())} if std else {})
+    return row | ({} if reference is None else {f"{prefix}normalized_score": reference.normalize(mean)})
 
 
 def _env_state(env: gym.Env) -> dict:
