@@ -134,3 +134,22 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     finally:
         torch.set_num_threads(threads)
     assert again == results["icvf"] and evals.read_text() == rows
+
+
+def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
+    from lwail_cli.stages.report import curve_figures, markdown, summarize
+
+    # 10 evaluations of a 1,000-step run; a dip at 700 (second half) and a worse one at 300 (first half)
+    scores = [5.0, 20.0, 10.0, 60.0, 80.0, 90.0, 40.0, 95.0, 100.0, 98.0]
+    curve = pd.DataFrame({"step": range(100, 1001, 100), "normalized_score": scores})
+    figures = curve_figures(curve, 1000, None)
+    assert figures == {"final": 98.0, "best": 100.0, "last_10pct_mean": 98.0, "second_half_min": 40.0}
+    assert curve_figures(curve, 1000, 97.5)["final"] == 97.5  # the closing evaluation wins over the curve's last point
+
+    runs = pd.DataFrame([
+        {"task": "T", "kind": "icvf", "seed": seed, **figures, "second_half_min": low, "wall_time_s": 60.0, "env_steps_per_s": 100.0}
+        for seed, low in ((0, 40.0), (1, 60.0))
+    ])
+    summary = summarize(runs)
+    assert summary.loc[0, "second_half_min_mean"] == 50.0 and summary.loc[0, "seeds"] == 2
+    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in markdown(summary)

@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from .sweep import SweepPlan
 
 LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
-FIGURES = ("final", "best", "last_10pct_mean")
+FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")
 
 
 def report(store: Store, *, plan: SweepPlan) -> Artifact:
@@ -32,12 +32,9 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
         if "normalized_score" not in curve:
             raise LwailError(f"{policy.ref} has no normalized scores in its learning curve")
         steps = policy.metrics["env_steps"]
-        final = _final_evaluation(policy)
         rows.append({
             "task": run.task, "kind": run.kind, "seed": run.seed, "policy": policy.ref,
-            "final": final if final is not None else curve["normalized_score"].iloc[-1],
-            "best": curve["normalized_score"].max(),
-            "last_10pct_mean": curve.loc[curve["step"] > (1 - LAST_FRACTION) * steps, "normalized_score"].mean(),
+            **curve_figures(curve, steps, _final_evaluation(policy)),
             "env_steps": steps, "wall_time_s": policy.metrics["wall_time_s"],
             "env_steps_per_s": steps / policy.metrics["wall_time_s"],
         })
@@ -58,6 +55,19 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
     return writer.artifact
 
 
+def curve_figures(curve: pd.DataFrame, steps: int, final: float | None) -> dict[str, float]:
+    """A run's FIGURES from its learning curve: the closing evaluation (else the curve's last point), the best
+    evaluation, the mean over the last 10% of steps, and the lowest evaluation after half the steps (how far the
+    kept network still falls once it has learned: the dips a final score hides)."""
+    score, step = curve["normalized_score"], curve["step"]
+    return {
+        "final": final if final is not None else float(score.iloc[-1]),
+        "best": float(score.max()),
+        "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
+        "second_half_min": float(score[step > steps / 2].min()),
+    }
+
+
 def _final_evaluation(policy: Artifact) -> float | None:
     scores = normalized_evaluations(policy)["normalized_score"]
     return float(scores.iloc[-1]) if len(scores) else None
@@ -75,8 +85,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def markdown(summary: pd.DataFrame) -> str:
-    lines = ["| task | embedding | final | best | mean, last 10% of steps | seeds | wall time | env-steps/s |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = ["| task | embedding | final | best | mean, last 10% of steps | lowest after half the steps | seeds | wall time | env-steps/s |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for row in summary.itertuples(index=False):
         cells = [f"{getattr(row, f + '_mean'):.1f} ± {_std(getattr(row, f + '_std'))}" for f in FIGURES]
         lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
