@@ -80,12 +80,16 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     lines = [line.split() for line in result.output.splitlines()]
     assert [row[0] for row in lines if row and row[0].isdigit()] == ["500", "1000"]
     header = next(row for row in lines if row and row[0] == "step")
-    for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman"):
+    for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman", "actor_normalized_score"):
         assert column in header
+    live = pd.read_csv(store.run_log("policy", "run", "learning_curve.csv"))
+    kept, other = live.loc[live["step"] == 1000, ["normalized_score", "actor_normalized_score"]].iloc[0]
+    # over the 1000 steps so far, the second half holds only the evaluation at 1000: last = lowest after half
+    assert f"kept network, normalized_score over 1000 steps: last {kept:.1f} · best {live['normalized_score'].max():.1f}" in result.output
+    assert f"lowest after half the steps {kept:.1f} (step 1000)" in result.output
+    assert f"actor network (not kept), actor_normalized_score over 1000 steps: last {other:.1f}" in result.output
 
     finished = imitate.imitate(store, resume=True, **run)
-    import pandas as pd
-
     curve = pd.read_csv(finished.file("learning_curve.csv"))
     assert list(curve["step"]) == [500, 1000, 1500]
     assert curve[["reward_expert_mean", "reward_random_mean"]].notna().all().all()

@@ -137,7 +137,8 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
 
 
 def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
-    from lwail_cli.stages.report import curve_figures, markdown, summarize
+    from lwail_cli.stages.curve import curve_figures
+    from lwail_cli.stages.report import markdown, summarize
 
     # 10 evaluations of a 1,000-step run; a dip at 700 (second half) and a worse one at 300 (first half)
     scores = [5.0, 20.0, 10.0, 60.0, 80.0, 90.0, 40.0, 95.0, 100.0, 98.0]

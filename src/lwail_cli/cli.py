@@ -348,7 +348,8 @@ def _say_evaluation(result: dict) -> None:
         typer.echo(f"warning: not appended to evals.csv: {result['not_logged']}", err=True)
 
 
-CURVE_COLUMNS = ("step", "wall_time", "return_mean", "return_std", "normalized_score", "reward_expert_mean", "pseudo_reward_mean",
+CURVE_COLUMNS = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
+                 *(f"{name}_normalized_score" for name in cfg.POLICY_NETWORKS), "reward_expert_mean", "pseudo_reward_mean",
                  "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman")
 
 
@@ -362,6 +363,8 @@ def curve(
     typer.echo(source)
     shown = history[[column for column in CURVE_COLUMNS if column in history]]
     typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))
+    for line in curve_stage.summary_lines(history):
+        typer.echo(line)
     path = out or Path(re.sub(r"[^A-Za-z0-9._-]", "_", ref) + "-curve.png")
     typer.echo(f"wrote {curve_stage.plot_curve(history, path, ref)}")
 

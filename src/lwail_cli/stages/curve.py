@@ -7,13 +7,15 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ..config import POLICY_NETWORKS
 from ..errors import LwailError
-from .plots import plot_run
+from .plots import plot_run, score_column
 
 if TYPE_CHECKING:
     from ..artifacts import Store
 
 CURVE_FILES = ("learning_curve.csv", "training.csv")  # imitate's, expert train's
+LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
 
 
 def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
@@ -46,3 +48,35 @@ def _read(path: Path) -> pd.DataFrame:
 def plot_curve(curve: pd.DataFrame, path: Path, title: str) -> Path:
     plot_run(curve, path, None, title)
     return path
+
+
+def curve_figures(curve: pd.DataFrame, steps: int, final: float | None, column: str = "normalized_score") -> dict[str, float]:
+    """A run's figures from its learning curve: the closing evaluation (else the curve's last point), the best
+    evaluation, the mean over the last 10% of ``steps``, and the lowest evaluation after half of them (how far the
+    network still falls once it has learned: the dips a final score hides)."""
+    score, step = curve[column], curve["step"]
+    return {
+        "final": final if final is not None else float(score.iloc[-1]),
+        "best": float(score.max()),
+        "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
+        "second_half_min": float(score[step > steps / 2].min()),
+    }
+
+
+def summary_lines(curve: pd.DataFrame) -> list[str]:
+    """One line per evaluated network (the kept one, then the other when logged): its figures over the steps so far."""
+    score, steps = score_column(curve), int(curve["step"].max())
+    columns = [("kept network", score)] + [
+        (f"{name} network (not kept)", f"{name}_{score}") for name in POLICY_NETWORKS if f"{name}_{score}" in curve
+    ]
+    lines = []
+    for label, column in columns:
+        figures = curve_figures(curve, steps, None, column)
+        second_half = curve[curve["step"] > steps / 2]
+        lowest_at = int(second_half.loc[second_half[column].idxmin(), "step"])
+        lines.append(
+            f"{label}, {column} over {steps} steps: last {figures['final']:.1f} · best {figures['best']:.1f} · "
+            f"mean of the last 10% {figures['last_10pct_mean']:.1f} · lowest after half the steps "
+            f"{figures['second_half_min']:.1f} (step {lowest_at})"
+        )
+    return lines

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
+from .curve import curve_figures
 from .evaluate import normalized_evaluations
 from .plots import plot_bands
 
@@ -17,8 +18,7 @@ if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
     from .sweep import SweepPlan
 
-LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
-FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")
+FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")  # curve_figures' keys
 
 
 def report(store: Store, *, plan: SweepPlan) -> Artifact:
@@ -53,19 +53,6 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
             plot_bands(group, writer.path(f"curves-{task}.png"), f"{task}: normalized score, mean ± std over seeds")
         writer.metrics.update({"runs": len(runs), "runs_planned": len(plan.runs)})
     return writer.artifact
-
-
-def curve_figures(curve: pd.DataFrame, steps: int, final: float | None) -> dict[str, float]:
-    """A run's FIGURES from its learning curve: the closing evaluation (else the curve's last point), the best
-    evaluation, the mean over the last 10% of steps, and the lowest evaluation after half the steps (how far the
-    kept network still falls once it has learned: the dips a final score hides)."""
-    score, step = curve["normalized_score"], curve["step"]
-    return {
-        "final": final if final is not None else float(score.iloc[-1]),
-        "best": float(score.max()),
-        "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
-        "second_half_min": float(score[step > steps / 2].min()),
-    }
 
 
 def _final_evaluation(policy: Artifact) -> float | None:
