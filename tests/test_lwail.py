@@ -178,11 +178,16 @@ def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
         if step == 1000:
             raise Killed
 
-    with pytest.raises(Killed):
-        imitate.imitate(store, name="killed", on_progress=kill, **stages)
+    for name in ("killed", "observed"):
+        with pytest.raises(Killed):
+            imitate.imitate(store, name=name, on_progress=kill, **stages)
     resumed = imitate.imitate(store, name="killed", resume=True, **stages)
+    # evaluating 4x as often (the critic's diagnostics included) and checkpointing elsewhere changes nothing trained
+    observed_config = cfg.with_overrides(config, ["train.eval_every=250", "train.eval_episodes=1", "train.checkpoint_every=700"])
+    observed = imitate.imitate(store, name="observed", resume=True, **{**stages, "config": observed_config})
+    assert pd.read_csv(observed.file("learning_curve.csv"))["step"].tolist() == [750, 1000, 1250, 1500]
     for name in ("actor.safetensors", "critic.safetensors"):
-        assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
+        assert straight.file(name).read_bytes() == resumed.file(name).read_bytes() == observed.file(name).read_bytes()
 
 
 def test_resume_refuses_a_run_started_differently(store):
@@ -200,8 +205,9 @@ def test_resume_refuses_a_run_started_differently(store):
         expert.train_expert(store, env_id="InvertedDoublePendulum-v5", config=config, seed=3, name="run", device=torch.device("cpu"), resume=True)
 
 
-def test_resume_may_change_the_budget_only(store):
-    """--resume --steps N: a longer run matches one that had N from the start; N = the checkpoint's step stops there."""
+def test_resume_may_change_the_budget_and_schedule_but_not_what_trains(store):
+    """--resume --steps N: a longer run matches one that had N from the start; N = the checkpoint's step stops there.
+    Anything that trains differently (here TD3's batch, or which network is kept) is refused."""
     device = torch.device("cpu")
     td3 = _expert_config(1200, 500).td3
 
@@ -220,6 +226,9 @@ def test_resume_may_change_the_budget_only(store):
             run(name, 1200, on_progress=kill)
     with pytest.raises(LwailError, match="at step 500: --steps must be at least 500"):
         run("stopped", 400, resume=True)
+    for other in (cfg.with_overrides(budget(1200), ["td3.batch_size=32"]), cfg.with_overrides(budget(1200), ["train.policy=actor"])):
+        with pytest.raises(LwailError, match="made with another config"):
+            expert.train_expert(store, env_id="Hopper-v5", config=other, seed=3, name="stopped", device=device, resume=True)
 
     straight, extended = run("straight", 1600), run("extended", 1600, resume=True)
     assert straight.file("final_actor.safetensors").read_bytes() == extended.file("final_actor.safetensors").read_bytes()

@@ -76,6 +76,9 @@ def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
 POLICY_NETWORKS = ("actor", "target")  # TD3's online actor and its Polyak-averaged target actor
+# train keys a resumed run may change: its budget and how it is observed, none of which changes what it trains
+# (evaluations use their own environments and no training randomness; tests/test_lwail.py checks it bit for bit)
+RESUME_MAY_CHANGE = ("steps", "eval_every", "eval_episodes", "checkpoint_every")
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
 
 

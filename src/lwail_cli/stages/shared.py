@@ -178,24 +178,26 @@ class TrainingRun:
 
 def prepare_run(store: Store, kind: str, name: str, resume: bool, record: dict) -> TrainingRun:
     """Checkpoints carry what made the run (config, seed, env, parents); a resume under anything else is refused.
-    The one thing a resume may change is an online run's budget, ``train.steps`` (see ``train_policy``)."""
+    A resume may change an online run's budget (``train.steps``, see ``train_policy``) and its evaluation and
+    checkpoint schedule (``cfg.RESUME_MAY_CHANGE``): e.g. evaluate every 1k steps to look closely at part of a run."""
     state = store.load_checkpoint(kind, name) if resume else None
     if state is not None:
         recorded = state.get("record", {})
-        changed = [key for key in record if _without_budget(recorded.get(key)) != _without_budget(record[key])]
+        changed = [key for key in record if _what_trains(recorded.get(key)) != _what_trains(record[key])]
         if changed:
             raise LwailError(
                 f"the checkpoint of {kind}/{name} was made with another {' and '.join(changed)}; "
-                "rerun with the same options (--steps may differ), or without --resume"
+                "rerun with the same options (only --steps, --eval-every, --checkpoint-every and train.eval_episodes may differ), "
+                "or without --resume"
             )
     return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint(kind, name, {**checkpoint, "record": record}))
 
 
-def _without_budget(value):
-    """A recorded config with ``train.steps`` left out (anything else unchanged)."""
+def _what_trains(value):
+    """A recorded config without the ``train`` keys a resume may change (anything else unchanged)."""
     if not isinstance(value, dict) or "train" not in value:
         return value
-    return {**value, "train": {k: v for k, v in value["train"].items() if k != "steps"}}
+    return {**value, "train": {k: v for k, v in value["train"].items() if k not in cfg.RESUME_MAY_CHANGE}}
 
 
 @dataclass(frozen=True)
