@@ -96,3 +96,44 @@ def test_without_evaluate_other_only_the_kept_network_is_evaluated():
     train = TrainConfig(steps=100, eval_every=100, eval_episodes=1, evaluate_other=False)
     run = train_td3("InvertedPendulum-v5", TD3(env, td3), ReplayBuffer(100, env.obs_dim, env.act_dim), td3, train, seed=0)
     assert not any(column.startswith(("actor_", "target_")) for column in run.history[-1])
+
+
+def _short_run(train):
+    env = describe_env("InvertedPendulum-v5")
+    td3 = TD3Config(hidden=(16,), random_steps=300, learning_starts=64, batch_size=64)
+    torch.manual_seed(0)
+    agent = TD3(env, td3, average_tau=train.average_tau)
+    return agent, train_td3("InvertedPendulum-v5", agent, ReplayBuffer(600, env.obs_dim, env.act_dim), td3, train, seed=0)
+
+
+def test_a_slower_average_of_the_actor_is_evaluated_and_kept_without_changing_training():
+    plain, _ = _short_run(TrainConfig(steps=600, eval_every=300, eval_episodes=2))
+    agent, run = _short_run(TrainConfig(steps=600, eval_every=300, eval_episodes=2, average_tau=0.001, policy="average"))
+    trained = ("actor", "actor_target", "critic", "critic_target")
+    assert all(torch.equal(plain.state_dict()[n][k], agent.state_dict()[n][k]) for n in trained for k in plain.state_dict()[n])
+    seeds = range(TrainConfig().eval_seed_offset, TrainConfig().eval_seed_offset + 2)
+    row = run.history[-1]
+    for name, prefix in (("average", ""), ("target", "target_"), ("actor", "actor_")):
+        assert row[f"{prefix}return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=name), seeds).returns.mean()
+    # after ~270 actor updates the average (τ = 0.001) is still near the initial actor; the target (τ = 0.005) has moved on
+    average, target, actor = (agent.network(n).state_dict()["net.0.weight"] for n in ("average", "target", "actor"))
+    assert not torch.equal(average, target) and not torch.equal(average, actor)
+    assert (average - actor).norm() > (target - actor).norm()  # it trails the actor further than the target does
+
+
+def test_a_checkpoint_without_the_average_starts_it_at_the_target_actor():
+    env = describe_env("InvertedPendulum-v5")
+    old = TD3(env, TD3Config(hidden=(16,)))
+    with torch.no_grad():
+        old.actor_target.net[0].weight.add_(1.0)
+    new = TD3(env, TD3Config(hidden=(16,)), average_tau=0.001)
+    new.load_state_dict(old.state_dict())
+    assert torch.equal(new.network("average").net[0].weight, old.actor_target.net[0].weight)
+    assert "actor_average" in new.state_dict() and "actor_average" not in old.state_dict()
+
+
+def test_keeping_the_average_needs_a_rate():
+    from lwail_cli.errors import LwailError
+
+    with pytest.raises(LwailError, match="train.policy=average needs train.average_tau > 0"):
+        TrainConfig(policy="average")

@@ -75,10 +75,10 @@ def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
 
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
-POLICY_NETWORKS = ("actor", "target")  # TD3's online actor and its Polyak-averaged target actor
+POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 # train keys a resumed run may change: its budget and how it is observed, none of which changes what it trains
 # (evaluations use their own environments and no training randomness; tests/test_lwail.py checks it bit for bit)
-RESUME_MAY_CHANGE = ("steps", "eval_every", "eval_episodes", "checkpoint_every")
+RESUME_MAY_CHANGE = ("steps", "eval_every", "eval_episodes", "checkpoint_every", "average_tau")
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
 
 
@@ -114,8 +114,13 @@ class TrainConfig(Validated):
     eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
     eval_seed_offset: int = setting(10_000, "evaluation episodes use seeds run seed + this + 0..n-1", low=0, high=2**31)
     checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
-    policy: str = setting("target", "the network evaluated and kept: target (the actor's Polyak average; docs/algorithm.md) or actor (the online one)", choices=POLICY_NETWORKS)
-    evaluate_other: bool = setting(True, "also evaluate the network policy does not name on the same episodes (<name>_* columns)")
+    policy: str = setting("target", "the network evaluated and kept: target (the actor's Polyak average; docs/algorithm.md), actor (the online one) or average", choices=POLICY_NETWORKS)
+    evaluate_other: bool = setting(True, "also evaluate the networks policy does not name on the same episodes (<name>_* columns)")
+    average_tau: float = setting(0.0, "Polyak rate of a slower average of the actor, updated with the target (0: none); never feeds training", low=0.0, high=1.0)
+
+    def check(self) -> None:
+        if vars(self)["policy"] == "average" and vars(self)["average_tau"] == 0.0:
+            raise LwailError("train.policy=average needs train.average_tau > 0 (e.g. 0.001)")
 
 
 @dataclass(frozen=True)

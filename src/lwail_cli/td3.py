@@ -9,6 +9,8 @@ nothing in an update asks the device for a Python number.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import torch
 from torch import nn
@@ -41,12 +43,17 @@ def _adam(params, lr: float, device: torch.device) -> torch.optim.Adam:
 
 
 class TD3:
-    def __init__(self, env: EnvInfo, config: TD3Config, device: torch.device | str = "cpu"):
+    def __init__(self, env: EnvInfo, config: TD3Config, device: torch.device | str = "cpu", average_tau: float = 0.0):
+        """``average_tau > 0`` also keeps a slower Polyak average of the actor, updated with the targets: a
+        candidate policy to evaluate and keep. Nothing reads it in an update, so it leaves training unchanged."""
         self.config = config
         self.device = torch.device(device)
         self.actor = Actor.for_env(env, config.hidden).to(self.device)
         self.actor_target = Actor.for_env(env, config.hidden).to(self.device)
         self.actor_target.load_state_dict(self.actor.state_dict())
+        self.average_tau = average_tau
+        # a copy, not a new Actor: building one would draw from torch's generator and change every later initialisation
+        self.actor_average = copy.deepcopy(self.actor).requires_grad_(False) if average_tau > 0 else None
         self.critic = StackedMLP(2, env.obs_dim + env.act_dim, config.hidden, 1).to(self.device)
         self.critic_target = StackedMLP(2, env.obs_dim + env.act_dim, config.hidden, 1).to(self.device)
         self.critic_target.load_state_dict(self.critic.state_dict())
@@ -61,9 +68,13 @@ class TD3:
         self.updates = 0
         self.last_critic_loss = torch.zeros((), device=self.device)
 
+    def networks(self) -> dict[str, Actor]:
+        """The policies this agent holds: the online actor, its Polyak average (the target) and, when kept, the slower average."""
+        held = {"actor": self.actor, "target": self.actor_target}
+        return held if self.actor_average is None else held | {"average": self.actor_average}
+
     def network(self, which: str) -> Actor:
-        """The online actor (``"actor"``) or its Polyak average (``"target"``)."""
-        return {"actor": self.actor, "target": self.actor_target}[which]
+        return self.networks()[which]
 
     @torch.inference_mode()
     def act(self, obs: np.ndarray, which: str = "actor") -> np.ndarray:
@@ -96,6 +107,8 @@ class TD3:
             with torch.no_grad():
                 soft_update(self.critic_target, self.critic, cfg.tau)
                 soft_update(self.actor_target, self.actor, cfg.tau)
+                if self.actor_average is not None:
+                    soft_update(self.actor_average, self.actor, self.average_tau)
 
     def state_dict(self) -> dict:
         return {
@@ -106,10 +119,12 @@ class TD3:
             "actor_optimizer": self.actor_optimizer.state_dict(),
             "critic_optimizer": self.critic_optimizer.state_dict(),
             "updates": self.updates,
-        }
+        } | ({} if self.actor_average is None else {"actor_average": self.actor_average.state_dict()})
 
     def load_state_dict(self, state: dict) -> None:
         for name in ("actor", "actor_target", "critic", "critic_target", "actor_optimizer", "critic_optimizer"):
             getattr(self, name).load_state_dict(state[name])
         self.updates = int(state["updates"])
+        if self.actor_average is not None:  # a checkpoint made without it starts the average at the target actor
+            self.actor_average.load_state_dict(state.get("actor_average", state["actor_target"]))
 

@@ -16,7 +16,6 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from .config import POLICY_NETWORKS
 from .envs import make_env
 from .rollout import rollout
 
@@ -72,13 +71,13 @@ class RunState:
 
 def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
     """True return (and score) of the deterministic ``train.policy`` network, the reward model's diagnostics on the
-    same episodes and, with ``train.evaluate_other``, the other network's return (and score) on those episodes too."""
+    same episodes and, with ``train.evaluate_other``, each other network's return (and score) on those episodes too."""
     seeds = range(seed, seed + train.eval_episodes)
     evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
     row = _scores(evaluation.returns, reference, "", std=True) | reward_model.metrics(evaluation)
     if train.evaluate_other:
-        other = next(name for name in POLICY_NETWORKS if name != train.policy)
-        row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds).returns, reference, f"{other}_")
+        for other in (name for name in agent.networks() if name != train.policy):
+            row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds).returns, reference, f"{other}_")
     return row
 
 

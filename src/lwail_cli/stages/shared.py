@@ -241,7 +241,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
         require_memory(4 * capacity * floats, f"a replay buffer of {capacity} transitions")
         torch.manual_seed(run.seed)
         reward_model = run.reward_model(capacity) if run.reward_model is not None else None
-        agent = TD3(info, run.config.td3, device)
+        agent = TD3(info, run.config.td3, device, average_tau=run.config.train.average_tau)
         buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
         result = train_td3(
             run.env_id, agent, buffer, run.config.td3, run.config.train, run.seed, reward_model=reward_model,
