@@ -187,7 +187,7 @@ def prepare_run(store: Store, kind: str, name: str, resume: bool, record: dict) 
         if changed:
             raise LwailError(
                 f"the checkpoint of {kind}/{name} was made with another {' and '.join(changed)}; "
-                "rerun with the same options (only --steps, --eval-every, --checkpoint-every and train.eval_episodes may differ), "
+                f"rerun with the same options (only {', '.join('train.' + key for key in cfg.RESUME_MAY_CHANGE)} may differ), "
                 "or without --resume"
             )
     return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint(kind, name, {**checkpoint, "record": record}))
