@@ -54,6 +54,7 @@ class TD3:
         self.average_tau = average_tau
         # a copy, not a new Actor: building one would draw from torch's generator and change every later initialisation
         self.actor_average = copy.deepcopy(self.actor).requires_grad_(False) if average_tau > 0 else None
+        self._policies = {"actor": self.actor, "target": self.actor_target} | ({} if self.actor_average is None else {"average": self.actor_average})
         self.critic = StackedMLP(2, env.obs_dim + env.act_dim, config.hidden, 1).to(self.device)
         self.critic_target = StackedMLP(2, env.obs_dim + env.act_dim, config.hidden, 1).to(self.device)
         self.critic_target.load_state_dict(self.critic.state_dict())
@@ -70,11 +71,10 @@ class TD3:
 
     def networks(self) -> dict[str, Actor]:
         """The policies this agent holds: the online actor, its Polyak average (the target) and, when kept, the slower average."""
-        held = {"actor": self.actor, "target": self.actor_target}
-        return held if self.actor_average is None else held | {"average": self.actor_average}
+        return self._policies
 
     def network(self, which: str) -> Actor:
-        return self.networks()[which]
+        return self._policies[which]
 
     @torch.inference_mode()
     def act(self, obs: np.ndarray, which: str = "actor") -> np.ndarray:

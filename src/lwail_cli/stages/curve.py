@@ -59,8 +59,12 @@ def curve_figures(curve: pd.DataFrame, steps: int, final: float | None, column: 
         "final": final if final is not None else float(score.iloc[-1]),
         "best": float(score.max()),
         "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
-        "second_half_min": float(score[step > steps / 2].min()),
+        "second_half_min": float(_second_half(curve, steps)[column].min()),
     }
+
+
+def _second_half(curve: pd.DataFrame, steps: int) -> pd.DataFrame:
+    return curve[curve["step"] > steps / 2]
 
 
 def summary_lines(curve: pd.DataFrame) -> list[str]:
@@ -72,7 +76,7 @@ def summary_lines(curve: pd.DataFrame) -> list[str]:
     lines = []
     for label, column in columns:
         figures = curve_figures(curve, steps, None, column)
-        second_half = curve[curve["step"] > steps / 2]
+        second_half = _second_half(curve, steps)
         lowest_at = int(second_half.loc[second_half[column].idxmin(), "step"])
         lines.append(
             f"{label}, {column} over {steps} steps: last {figures['final']:.1f} · best {figures['best']:.1f} · "
