@@ -22,6 +22,7 @@ Policy = Callable[[np.ndarray], np.ndarray]  # a batch of float32 observations -
 class Rollouts:
     returns: np.ndarray  # (episodes,) float64 true returns, in seed order
     episodes: list[Episode]  # the episodes themselves when recorded (else empty), in seed order
+    terminated: np.ndarray | None = None  # (episodes,) bool: ended by the environment (a fall), not by its time limit
 
 
 def rollout(
@@ -85,6 +86,7 @@ def rollout(
     return Rollouts(
         returns=np.array([trace.total for trace in done]),
         episodes=[trace.episode() for trace in done] if record else [],
+        terminated=np.array([trace.terminated for trace in done], dtype=bool),
     )
 
 

@@ -67,6 +67,7 @@ class RunState:
     best_actor: dict | None = None  # the weights of the policy network (train.policy) at the best evaluation so far
     best_step: int = 0
     best_return: float = float("-inf")
+    best_complete: bool = False  # no episode of the best evaluation ended early (``is_better``)
 
 
 def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
@@ -74,11 +75,19 @@ def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, refe
     same episodes and, with ``train.evaluate_other``, each other network's return (and score) on those episodes too."""
     seeds = range(seed, seed + train.eval_episodes)
     evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
-    row = _scores(evaluation.returns, reference, "", std=True) | reward_model.metrics(evaluation)
+    row = _scores(evaluation.returns, reference, "", std=True) | {"episodes_terminated": int(evaluation.terminated.sum())}
+    row |= reward_model.metrics(evaluation)
     if train.evaluate_other:
         for other in (name for name in agent.networks() if name != train.policy):
             row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds).returns, reference, f"{other}_")
     return row
+
+
+def is_better(row: dict, run: RunState) -> bool:
+    """Does this evaluation beat the best so far? An evaluation with every episode complete (none ended by the
+    environment, e.g. by a fall) beats one with an early end whatever the returns; among equals the higher mean wins."""
+    complete = row["episodes_terminated"] == 0
+    return run.best_actor is None or (complete, row["return_mean"]) > (run.best_complete, run.best_return)
 
 
 def _scores(returns: np.ndarray, reference: Reference | None, prefix: str, std: bool = False) -> dict[str, float]:
@@ -169,9 +178,9 @@ def train_td3(
         run.wall_time = time.perf_counter() - started
         row = {"step": run.step, "wall_time": run.wall_time}
         row.update(evaluate_policy(agent, train, env_id, seed + train.eval_seed_offset, reference, reward_model))
-        if run.best_actor is None or row["return_mean"] > run.best_return:
+        if is_better(row, run):
             run.best_actor = {k: v.detach().clone() for k, v in agent.network(train.policy).state_dict().items()}
-            run.best_step, run.best_return = run.step, row["return_mean"]
+            run.best_step, run.best_return, run.best_complete = run.step, row["return_mean"], row["episodes_terminated"] == 0
         run.history.append(row)
         if on_evaluation is not None:
             on_evaluation(run)

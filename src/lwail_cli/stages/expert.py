@@ -18,10 +18,16 @@ def train_expert(
     resume: bool = False, on_progress: Progress | None = None,
 ) -> Artifact:
     def write(writer, result, agent, rewards) -> None:
-        # an expert may keep its best evaluation: it trains on the true reward anyway
+        # an expert may keep its best evaluation (it trains on the true reward anyway), preferring one without falls
         save_weights(writer.path("actor.safetensors"), result.best_actor)
         save_weights(writer.path("final_actor.safetensors"), agent.network(config.train.policy).state_dict())
-        writer.metrics.update({"actor": f"best evaluation, at step {result.best_step}", "best_return_mean": result.best_return})
+        episodes = config.train.eval_episodes
+        why = (f"the highest mean return of the evaluations with all {episodes} episodes complete" if result.best_complete
+               else f"no evaluation had all {episodes} episodes complete: the highest mean return")
+        writer.metrics.update({
+            "actor": f"best evaluation, at step {result.best_step}", "kept_because": why,
+            "best_return_mean": result.best_return, "best_complete": result.best_complete,
+        })
 
     run = PolicyRun(
         env_id=env_id, name=name or default_name(env_id, "expert"), config=config, seed=seed, parents=[],
