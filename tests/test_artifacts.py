@@ -69,8 +69,8 @@ def test_validation_refuses_tampering_wrong_kind_schema_and_missing(store):
 
 
 def test_corrupt_checkpoint_is_refused_clearly(store):
-    store.save_checkpoint("policy", "run", {"step": 5})
-    assert store.load_checkpoint("policy", "run") == {"step": 5}
+    store.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
+    assert store.load_checkpoint("policy", "run") == {"step": 5, "record": {"seed": 0}}
     path = store.root / ".runs" / "policy" / "run" / "checkpoint.pt"
     path.write_bytes(b"garbage" * 10)
     with pytest.raises(LwailError, match="corrupt"):

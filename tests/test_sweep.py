@@ -36,7 +36,7 @@ pretrain-icvf = ["icvf.layer_norm=false"]
         (VARIANT_PLAN.replace('kind = "icvf"', 'kind = "pca"'), "needs kind = one of ['icvf', 'identity']"),
         (VARIANT_PLAN + 'collect = ["transitions=5"]', "[variants.plain-phi] may hold lists of field=value for the stages ['pretrain-icvf'"),
         (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
-        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"icvf.layer_norm=maybe"'), "--set icvf.layer_norm: cannot read 'maybe'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
         (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 0', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = "2"', "'threads' must be an integer from 1 to 256"),

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import hashlib
+import itertools
 import json
 import os
 import re
@@ -58,6 +59,26 @@ def _content_hash(file_hashes: dict[str, str], env: dict, config: dict) -> str:
     lines = "".join(f"{name}:{digest}\n" for name, digest in sorted(file_hashes.items()))
     lines += json.dumps({"env": env, "config": config}, sort_keys=True)
     return hashlib.sha256(lines.encode()).hexdigest()
+
+
+_MANIFEST_TYPES = {"name": str, "version": int, "config": dict, "files": dict, "parents": list, "metrics": dict, "created": str,
+                   "hash": str, "manifest_hash": str}  # the entries readers rely on (kind and schema are checked first)
+
+
+def _malformed(manifest: dict) -> str | None:
+    """What is wrong with the shape of a manifest (None if nothing), so a damaged one is refused or listed as
+    DAMAGED rather than failing in whichever reader touches the missing entry first."""
+    for key, kind in _MANIFEST_TYPES.items():
+        if not isinstance(manifest.get(key), kind) or isinstance(manifest.get(key), bool):
+            return f"its {key!r} entry is missing or not a {kind.__name__}"
+    env = manifest.get("env", False)  # None is legitimate: a report spans environments
+    if env is not None and not (isinstance(env, dict) and isinstance(env.get("id"), str)):
+        return "its 'env' entry is missing or names no environment id"
+    if not all(isinstance(name, str) and isinstance(digest, str) for name, digest in manifest["files"].items()):
+        return "its 'files' entry must map file names to hashes"
+    if not all(isinstance(entry, dict) and isinstance(entry.get("ref"), str) for entry in manifest["parents"]):
+        return "each of its 'parents' must name a ref"
+    return None
 
 
 @dataclass(frozen=True)
@@ -142,7 +163,7 @@ class Store:
         if (path / MANIFEST).is_file():
             artifact = self._load(path)
         else:
-            match = _REF.match(ref)
+            match = _REF.fullmatch(ref)  # fullmatch: '$' alone lets "name\n" through as "name"
             if not match:
                 raise LwailError(f"{ref!r} is neither an artifact path nor a name like 'hopper' or 'hopper@v2'")
             ref_kind = match["kind"] or kind
@@ -214,7 +235,10 @@ class Store:
             )
         if manifest.get("kind") not in KINDS:
             raise LwailError(f"{path} has unknown kind {manifest.get('kind')!r}")
-        file_hashes = manifest.get("files", {})
+        problem = _malformed(manifest)
+        if problem is not None:
+            raise LwailError(f"{path / MANIFEST} is damaged: {problem}")
+        file_hashes = manifest["files"]
         for filename, expected in file_hashes.items():
             if Path(filename).is_absolute() or ".." in Path(filename).parts:
                 raise LwailError(f"{path / MANIFEST} names a file outside its artifact: {filename!r}")
@@ -251,7 +275,8 @@ class Store:
                         manifest = json.loads((name_dir / f"v{versions[-1]}" / MANIFEST).read_text())
                     except (OSError, json.JSONDecodeError, UnicodeDecodeError):
                         manifest = None
-                    rows.append((kind, name_dir.name, versions, manifest if isinstance(manifest, dict) else None))
+                    listable = isinstance(manifest, dict) and _malformed(manifest) is None
+                    rows.append((kind, name_dir.name, versions, manifest if listable else None))
         return rows
 
     # ---------------------------------------------------------------- writing
@@ -335,38 +360,45 @@ class Store:
 
     @contextlib.contextmanager
     def claim_run(self, kind: str, name: str, *, resume: bool) -> Iterator[None]:
-        """One run per name at a time, and a fresh run never overwrites the checkpoint a killed run left."""
-        folder = self._checkpoint_path(kind, name).parent
-        folder.mkdir(parents=True, exist_ok=True)
-        lock = folder / "lock"
-        owner = f"{socket.gethostname()} {os.getpid()}"
-        try:
-            self._take_lock(lock, owner, f"{kind}/{name}")
-            if not resume and (folder / "checkpoint.pt").exists():
-                raise LwailError(
-                    f"a killed run of {kind}/{name} left a checkpoint: add --resume to continue it, "
-                    f"choose another --name, or delete {folder} to start over"
-                )
-            yield
-        finally:
-            if lock.is_file() and lock.read_text() == owner:
-                lock.unlink()
+        """One run per name at a time, and a fresh run never overwrites the checkpoint a killed run left.
 
-    @staticmethod
-    def _take_lock(lock: Path, owner: str, what: str) -> None:
-        for _ in range(2):
-            try:
-                with open(lock, "x") as handle:
-                    handle.write(owner)
-                return
-            except FileExistsError:
-                host, _, pid = lock.read_text().partition(" ")
-                if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
-                    lock.unlink(missing_ok=True)  # left by a killed process: take it over
-                    continue
-                raise LwailError(f"{what} is being trained by process {pid or '?'} on {host or '?'}; wait for it, or choose "
-                                 f"another --name (if that process is gone, delete {lock})") from None
-        raise LwailError(f"{what}: another process took the run's lock {lock} at the same time")
+        A refused command leaves the store as it was: the claim's own checks come before its lock is written, and a
+        run refused inside the claim (its caller checks the checkpoint there) before it wrote anything gets its
+        folder back as it was found, a killed process's lock included."""
+        folder = self._checkpoint_path(kind, name).parent
+        what = f"{kind}/{name}"
+        if not resume and (folder / "checkpoint.pt").exists():
+            raise LwailError(
+                f"a killed run of {what} left a checkpoint: add --resume to continue it, "
+                f"choose another --name, or delete {folder} to start over"
+            )
+        lock = folder / "lock"
+        stale = _stale_lock(lock, what)
+        created = list(itertools.takewhile(lambda directory: not directory.exists(), (folder, *folder.parents)))
+        folder.mkdir(parents=True, exist_ok=True)
+        if stale is not None:
+            lock.unlink(missing_ok=True)  # left by a killed process: take it over
+        owner = f"{socket.gethostname()} {os.getpid()}".encode()
+        try:
+            with open(lock, "xb") as handle:
+                handle.write(owner)
+        except FileExistsError:
+            raise LwailError(f"{what}: another process took the run's lock {lock} at the same time") from None
+        found = _folder_state(folder)
+        try:
+            yield
+        except BaseException:
+            if _folder_state(folder) == found:  # refused before writing anything: no trace of the attempt
+                lock.unlink()
+                if stale is not None:
+                    lock.write_bytes(stale)
+                for directory in created:  # deepest first; one another run has filled since stays
+                    with contextlib.suppress(OSError):
+                        directory.rmdir()
+            raise
+        finally:
+            if _read_small(lock) == owner:
+                lock.unlink()
 
     def save_checkpoint(self, kind: str, name: str, state: dict) -> Path:
         """Replace the run's checkpoint atomically (a kill mid-write keeps the previous one)."""
@@ -383,17 +415,21 @@ class Store:
         return path
 
     def load_checkpoint(self, kind: str, name: str) -> dict:
-        import pickle
-
         import torch
 
         path = self._checkpoint_path(kind, name)
         if not path.is_file():
             raise LwailError(f"--resume: no checkpoint for {kind}/{name} in store {self.root}")
         try:
-            return torch.load(path, map_location="cpu", weights_only=True)  # tensors and plain data only: no code runs
-        except (RuntimeError, EOFError, OSError, pickle.UnpicklingError, ValueError) as exc:
-            raise LwailError(f"--resume: the checkpoint {path} is corrupt ({type(exc).__name__}); rerun without --resume") from None
+            state = torch.load(path, map_location="cpu", weights_only=True)  # tensors and plain data only: no code runs
+        except Exception as exc:  # foreign bytes fail torch's reader in many ways (text: KeyError, a cut file: OSError)
+            problem = type(exc).__name__
+        else:
+            if isinstance(state, dict) and isinstance(state.get("record"), dict):  # what made the run: every checkpoint has it
+                return state
+            problem = "not a checkpoint of an lwail run"
+        raise LwailError(f"--resume: the checkpoint {path} is corrupt ({problem}); delete {path.parent} to start over, "
+                         "or choose another --name")
 
     def run_log(self, kind: str, name: str, filename: str) -> Path:
         """A CSV a run in progress (or a killed one) keeps beside its checkpoint."""
@@ -422,22 +458,36 @@ class Store:
             raise ValueError(f"bad ledger key {key!r}")
         return self.root / ".runs" / "sweep" / sweep / f"{key}.ref"
 
-    def finished_stage(self, sweep: str, key: str, kind: str) -> Artifact | None:
-        """The artifact a sweep recorded for a stage fingerprint, if it is still there and intact."""
-        entry = self._ledger_entry(sweep, key)
-        if not entry.is_file():
+    def finished_stage(self, sweep: str, key: str, kind: str, name: str) -> Artifact | None:
+        """The artifact ``kind/name`` a sweep recorded for a stage fingerprint, if it is still there and intact; None
+        otherwise (removed, damaged, or an entry naming anything else), so the stage runs again."""
+        recorded = (_read_small(self._ledger_entry(sweep, key)) or b"").decode(errors="replace").strip()
+        match = _REF.fullmatch(recorded)
+        if match is None or (match["kind"], match["name"]) != (kind, name) or match["version"] is None:
             return None
         try:
-            return self.resolve(entry.read_text().strip(), kind)
-        except LwailError:  # removed or damaged since: the stage runs again
+            return self.resolve(recorded, kind)
+        except LwailError:
             return None
 
     def record_finished_stage(self, sweep: str, key: str, artifact: Artifact) -> None:
-        entry = self._ledger_entry(sweep, key)
-        entry.parent.mkdir(parents=True, exist_ok=True)
-        partial = entry.with_suffix(".partial")
-        partial.write_text(artifact.ref)
-        os.replace(partial, entry)
+        _write_atomically(self._ledger_entry(sweep, key), artifact.ref)
+
+    def _status_path(self, sweep: str, run: str) -> Path:
+        check_name(sweep)
+        check_name(run)
+        return self.root / ".runs" / "sweep" / sweep / f"{run}.status"
+
+    def set_sweep_status(self, sweep: str, run: str, line: str) -> None:
+        """What a sweep's run (named by its policy) is doing now, for the sweep's driver to show."""
+        _write_atomically(self._status_path(sweep, run), line)
+
+    def sweep_status(self, sweep: str, run: str) -> str | None:
+        line = _read_small(self._status_path(sweep, run))
+        return None if line is None else line.decode(errors="replace")
+
+    def clear_sweep_status(self, sweep: str, run: str) -> None:
+        self._status_path(sweep, run).unlink(missing_ok=True)
 
     def clear_checkpoint(self, kind: str, name: str) -> None:
         shutil.rmtree(self._checkpoint_path(kind, name).parent, ignore_errors=True)
@@ -457,10 +507,56 @@ def _remove_abandoned(tmp_root: Path) -> None:
             shutil.rmtree(folder, ignore_errors=True)
 
 
+def _stale_lock(lock: Path, what: str) -> bytes | None:
+    """The bytes of a run's lock that a killed process of this host left (to take over), None without a lock. A lock
+    of a live process, or of another host, is refused; so is a damaged one (not 'host pid'): whether a process still
+    trains the run is the user's call."""
+    if not os.path.lexists(lock):
+        return None
+    held = _read_small(lock)
+    found = re.fullmatch(rb"(\S+) ([1-9][0-9]*)", held or b"")
+    if found is None:
+        raise LwailError(f"the lock {lock} of {what} is damaged (not 'host pid'); if no process is training {what}, delete it")
+    host, pid = found[1].decode(errors="replace"), int(found[2])
+    if host == socket.gethostname() and not _alive(pid):
+        return held
+    raise LwailError(f"{what} is being trained by process {pid} on {host}; wait for it, or choose another --name "
+                     f"(if that process is gone, delete {lock})")
+
+
+def _read_small(path: Path, limit: int = 4096) -> bytes | None:
+    """The first bytes of a small regular file; None for anything else (missing, a folder, a link, a FIFO or a
+    device, which could block or never end), so a planted run file can neither hang nor flood a reader."""
+    try:
+        if path.is_symlink() or not path.is_file():
+            return None
+        with open(path, "rb") as handle:
+            return handle.read(limit)
+    except OSError:
+        return None
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial")
+    partial.write_text(text)
+    os.replace(partial, path)
+
+
+def _folder_state(folder: Path) -> dict[str, tuple[int, int]]:
+    """Size and modification time of each entry of a run folder but its lock ({} without the folder)."""
+    try:
+        entries = list(os.scandir(folder))
+    except FileNotFoundError:
+        return {}
+    return {entry.name: (entry.stat(follow_symlinks=False).st_size, entry.stat(follow_symlinks=False).st_mtime_ns)
+            for entry in entries if entry.name != "lock"}
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # no such process (a pid past the C range cannot be one)
         return False
     except PermissionError:  # someone else's process
         return True

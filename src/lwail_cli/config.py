@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import typing
 from dataclasses import dataclass, field
 
@@ -249,7 +250,7 @@ def _parse(text: str, hint, key: str):
                 raise ValueError(text)
             return lowered in ("true", "1", "yes")
         if typing.get_origin(hint) is tuple:
-            return tuple(int(v) for v in text.replace(" ", "").strip("()[]").split(",") if v)
+            return _parse_list(text)
         if hint is int:
             number = float(text) if "e" in text.lower() else int(text)
             if isinstance(number, float) and not number.is_integer():
@@ -260,31 +261,71 @@ def _parse(text: str, hint, key: str):
         raise LwailError(f"--set {key}: cannot read {text!r} as {getattr(hint, '__name__', hint)}") from None
 
 
-def with_overrides(config, assignments: list[str]):
-    """Apply ``section.field=value`` assignments to a frozen config, checking names, types and bounds."""
-    for assignment in assignments:
-        key, sep, text = assignment.partition("=")
-        if not sep:
-            raise LwailError(f"--set expects section.field=value, got {assignment!r}")
-        config = _replace_path(config, key.strip().split("."), text, key.strip())
-    return config
+_LIST = re.compile(r"\s*(?:\[(?P<square>[^][()]*)\]|\((?P<round>[^][()]*)\)|(?P<bare>[^][()]*))\s*")
 
 
-def _replace_path(config, path: list[str], text: str, key: str):
+def _parse_list(text: str) -> tuple[int, ...]:
+    """``256,256``, ``[256, 256]`` or ``(256, 256)``, one trailing comma allowed (Python's ``(32,)``); ``[]``, ``()`` or
+    nothing is the empty list (as widths: no hidden layer, a linear map). Anything else is refused, not guessed at:
+    an unclosed bracket (``[32``), an empty item (``1,,2``), a space inside a number (``3 2``)."""
+    match = _LIST.fullmatch(text)
+    if match is None:
+        raise ValueError(text)
+    items = [item.strip() for item in next(group for group in match.groups() if group is not None).split(",")]
+    if len(items) > 1 and items[-1] == "" and items[-2] != "":
+        items.pop()
+    if items == [""]:
+        return ()
+    return tuple(int(item) for item in items)  # int("") and int("3 2") raise ValueError
+
+
+def with_overrides(config, *layers: list[str]):
+    """Apply ``section.field=value`` assignments to a frozen config, all together: every name and value is read
+    first, then each changed section is built (and checked) once, so a check across fields (td3.learning_starts
+    against td3.batch_size) sees every assignment and their order never matters. Within a layer a key is given once;
+    a later layer (a sweep variant's overrides after its plan's) overrides an earlier one."""
+    changes: dict = {}
+    for layer in layers:
+        given: dict[str, object] = {}
+        for assignment in layer:
+            key, sep, text = assignment.partition("=")
+            if not sep:
+                raise LwailError(f"--set expects section.field=value, got {assignment!r}")
+            key = key.strip()
+            value = _read_setting(config, key.split("."), text, key)
+            if key in given and given[key] != value:
+                raise LwailError(f"--set {key} is given twice ({given[key]!r} and {value!r}); give it once")
+            given[key] = value
+            node = changes
+            for part in key.split(".")[:-1]:
+                node = node.setdefault(part, {})
+            node[key.split(".")[-1]] = value
+    return _rebuilt(config, changes)
+
+
+def _read_setting(config, path: list[str], text: str, key: str):
+    """The value ``text`` gives the setting at ``path`` (its name and type checked; its bounds when the config is built)."""
     names = {f.name for f in dataclasses.fields(config)}
     if path[0] not in names:
         raise LwailError(f"--set {key}: unknown setting {path[0]!r}; known: {', '.join(sorted(names))}")
-    hint = typing.get_type_hints(type(config))[path[0]]
     current = vars(config)[path[0]]
     if len(path) > 1:
         if not dataclasses.is_dataclass(current):
             raise LwailError(f"--set {key}: {path[0]!r} has no sub-settings")
-        value = _replace_path(current, path[1:], text, key)
-    elif dataclasses.is_dataclass(current):
+        return _read_setting(current, path[1:], text, key)
+    if dataclasses.is_dataclass(current):
         raise LwailError(f"--set {key}: {path[0]!r} is a section; name one of its fields")
-    else:
-        value = _parse(text, hint, key)
-    return dataclasses.replace(config, **{path[0]: value})
+    return _parse(text, typing.get_type_hints(type(config))[path[0]], key)
+
+
+def _rebuilt(config, changes: dict):
+    """``config`` with ``changes`` (nested dicts for sections), each changed section built once, innermost first."""
+    if not changes:
+        return config
+    return dataclasses.replace(config, **{
+        name: _rebuilt(vars(config)[name], value) if dataclasses.is_dataclass(vars(config)[name]) else value
+        for name, value in changes.items()
+    })
 
 
 def describe(config, indent: str = "") -> str:

@@ -8,8 +8,10 @@ later stages bootstrap through a truncation but not through a termination.
 from __future__ import annotations
 
 import json
+import math
 import os
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -143,6 +145,15 @@ def read_minari_directory(directory: Path, source: str) -> tuple[list[Episode], 
         raise LwailError(f"{source} has no readable metadata.json: {exc}") from None
     if not isinstance(metadata, dict) or metadata.get("data_format", "hdf5") != "hdf5":
         raise LwailError(f"{source} is not a Minari dataset in hdf5 format")
+    from minari import __version__ as minari_version
+    from minari import supported_dataset_versions
+
+    version = metadata.get("minari_version")
+    if not isinstance(version, str) or version not in supported_dataset_versions:
+        raise LwailError(f"{source} was written by Minari {version!r}, a format the installed Minari {minari_version} does not read "
+                         f"(it reads {', '.join(sorted(supported_dataset_versions))}); upgrade minari, or import the data as a .npz")
+    if not (directory / "main_data.hdf5").is_file():  # not a FIFO either: HDF5 would wait on it for a writer
+        raise LwailError(f"{source} has no main_data.hdf5 file")
     try:
         with h5py.File(directory / "main_data.hdf5", "r") as data:
             names = sorted((key for key in data if key.startswith("episode_")), key=lambda key: int(key[len("episode_"):]))
@@ -190,21 +201,71 @@ def load_local_minari(dataset_id: str) -> tuple[list[Episode], dict]:
 
 
 # ------------------------------------------------------------------------------ .npz files
+# what reading a damaged zip raises: a cut or altered member (BadZipFile, zlib.error), an encrypted one (RuntimeError),
+# an unknown compression (NotImplementedError), a bad .npy header or a pickled array (ValueError)
+_ZIP_ERRORS = (OSError, ValueError, EOFError, RuntimeError, NotImplementedError, zipfile.BadZipFile, zlib.error)
+
+
+def npz_arrays(path: Path) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """The arrays a .npz declares (name: shape, dtype), read from their headers alone, so that nothing is allocated
+    before the file is known to be sound: a zip of .npy members, each storing exactly the bytes its shape declares
+    (a damaged or forged header, say a shape of 14 TiB, is refused here rather than allocated). Object arrays
+    (pickles) are listed but never loaded."""
+    if not path.is_file():
+        raise LwailError(f"no such file: {path}" if not path.exists() else f"{path} is not a regular file (a folder, FIFO or device?)")
+    if not zipfile.is_zipfile(path):
+        with open(path, "rb") as handle:
+            single = handle.read(6) == b"\x93NUMPY"
+        raise LwailError(f"{path} holds a single array (.npy), not a .npz of named arrays ('observations', 'episode_ends', ...)" if single
+                         else f"cannot read {path} as a .npz file: it is not a zip archive (empty, cut short, or another format)")
+    declared = {}
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for member in archive.infolist():
+                if not member.filename.endswith(".npy"):
+                    raise LwailError(f"{path} is a zip but not a .npz: its member {member.filename!r} is no .npy array")
+                with archive.open(member) as handle:
+                    version = np.lib.format.read_magic(handle)
+                    header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+                    shape, _, dtype = header(handle)
+                    stored = member.file_size - handle.tell()
+                name = member.filename.removesuffix(".npy")
+                if not dtype.hasobject and (math.prod(shape) * dtype.itemsize != stored or min(shape, default=0) < 0):
+                    raise LwailError(f"{path}: {name!r} declares a {dtype} array of shape {shape} but stores {stored} bytes: "
+                                     "the file is damaged or was altered")
+                declared[name] = (shape, dtype)
+    except _ZIP_ERRORS as exc:
+        raise LwailError(f"cannot read {path} as a .npz file ({type(exc).__name__}: {exc})") from None
+    return declared
+
+
+def npz_bytes(path: Path) -> int:
+    """Bytes the numeric arrays of a .npz take once loaded, from their checked headers (``npz_arrays``)."""
+    return sum(math.prod(shape) * dtype.itemsize for shape, dtype in npz_arrays(path).values() if not dtype.hasobject)
+
+
+def _load_npz(path: Path, wanted: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The ``wanted`` arrays a .npz holds (others, pickles included, are never read), each of real numbers or bools."""
+    declared = npz_arrays(path)
+    for name in set(wanted) & set(declared):
+        dtype = declared[name][1]
+        if dtype.hasobject or dtype.kind not in "biufc":
+            raise LwailError(f"{path}: {name!r} must hold real numbers or bool flags, not {dtype} (lwail never unpickles)")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            return {key: archive[key] for key in wanted if key in declared}
+    except _ZIP_ERRORS as exc:  # sound headers, damaged data (a CRC error)
+        raise LwailError(f"cannot read {path} as a .npz file ({type(exc).__name__}: {exc})") from None
+
+
 def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     """Episodes from a ``.npz``: ``observations`` (N, obs_dim) and ``episode_ends`` (N,) bool marking
     each episode's last observation; optional ``terminations`` (N,) bool on those last observations
     and ``returns`` (one per episode). Returns the episodes and the returns (or None)."""
-    try:
-        loaded = np.load(path)
-        if not isinstance(loaded, np.lib.npyio.NpzFile):
-            raise LwailError(f"{path} holds a single array (.npy), not a .npz of named arrays ('observations', 'episode_ends', ...)")
-        with loaded as archive:
-            arrays = {key: archive[key] for key in archive.files}
-    except (OSError, ValueError, EOFError) as exc:  # an empty file raises EOFError
-        raise LwailError(f"cannot read {path} as a .npz file: {exc or 'it is empty'}") from None
+    arrays = _load_npz(path, ("observations", "episode_ends", "terminations", "returns"))
     for key in ("observations", "episode_ends"):
         if key not in arrays:
-            raise LwailError(f"{path} has no {key!r} array (it has: {', '.join(arrays) or 'nothing'})")
+            raise LwailError(f"{path} has no {key!r} array (it has: {', '.join(npz_arrays(path)) or 'nothing'})")
     if not _is_real(arrays["observations"]):
         raise LwailError(f"{path}: 'observations' must hold real numbers, not {arrays['observations'].dtype}")
     observations = np.asarray(arrays["observations"], dtype=np.float32)
@@ -234,7 +295,7 @@ def read_imitation(path: Path) -> list[Episode]:
     jsonpickle strings, whose decoding can run code, and pickled trajectory files are refused."""
     if path.is_dir():
         observations, terminal, rewards = _imitation_folder(path)
-    elif zipfile.is_zipfile(path):
+    elif path.is_file() and zipfile.is_zipfile(path):  # is_file first: opening a FIFO would wait for a writer forever
         observations, terminal, rewards = _imitation_npz(path)
     else:
         raise LwailError(f"{path} is neither a folder written by imitation.data.serialize.save nor imitation's older .npz "
@@ -260,11 +321,14 @@ def _imitation_folder(path: Path) -> tuple[list[np.ndarray], list, list[np.ndarr
         import pyarrow.ipc
     except ImportError:
         raise LwailError('reading imitation\'s trajectory folders needs pyarrow: pip install "lwail[imitation]"') from None
+    if not (path / "state.json").is_file():
+        raise LwailError(f"{path} has no readable state.json naming its data files (as datasets' save_to_disk writes)")
     try:
         files = [entry["filename"] for entry in json.loads((path / "state.json").read_text())["_data_files"]]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise LwailError(f"{path} has no readable state.json naming its data files (as datasets' save_to_disk writes): {exc}") from None
-    if not files or not all(isinstance(name, str) and name not in ("", ".", "..") and Path(name).name == name for name in files):
+    if not files or not all(isinstance(name, str) and name not in ("", ".", "..") and Path(name).name == name and (path / name).is_file()
+                            for name in files):
         raise LwailError(f"{path}/state.json must name its data files inside the folder, got {files!r}")
     try:
         table = pa.concat_tables([pa.ipc.open_stream(pa.memory_map(str(path / name))).read_all() for name in files])
@@ -286,16 +350,13 @@ def _imitation_folder(path: Path) -> tuple[list[np.ndarray], list, list[np.ndarr
 def _imitation_npz(path: Path) -> tuple[list[np.ndarray], np.ndarray, list[np.ndarray] | None]:
     """imitation's older format: every trajectory's obs back to back, ``indices`` the cut points of the
     transitions (one fewer than the trajectories), ``terminal`` one flag per trajectory."""
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            missing = [key for key in ("obs", "acts", "indices", "terminal") if key not in archive.files]
-            if missing:
-                raise LwailError(f"{path} has no {', '.join(map(repr, missing))} (it has: {', '.join(archive.files)}); is it imitation's trajectories?")
-            obs, indices, terminal = archive["obs"], archive["indices"], archive["terminal"]
-            transitions = len(archive["acts"])  # the actions themselves are not kept: they only check the cut points
-            rews = archive["rews"] if "rews" in archive.files else None
-    except (OSError, ValueError, EOFError) as exc:  # an object array (pickled) raises ValueError with allow_pickle=False
-        raise LwailError(f"cannot read {path} as imitation's .npz: {exc}") from None
+    archive = _load_npz(path, ("obs", "acts", "indices", "terminal", "rews"))
+    missing = [key for key in ("obs", "acts", "indices", "terminal") if key not in archive]
+    if missing:
+        raise LwailError(f"{path} has no {', '.join(map(repr, missing))} (it has: {', '.join(npz_arrays(path))}); is it imitation's trajectories?")
+    obs, indices, terminal = archive["obs"], archive["indices"], archive["terminal"]
+    transitions = len(archive["acts"])  # the actions themselves are not kept: they only check the cut points
+    rews = archive.get("rews")
     count = len(indices) + 1
     if (obs.ndim != 2 or indices.ndim != 1 or not np.issubdtype(indices.dtype, np.integer) or np.any(np.diff(indices) < 0)
             or np.any(indices < 0) or np.any(indices > transitions) or terminal.shape != (count,) or terminal.dtype != bool

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import gymnasium as gym
@@ -27,26 +28,87 @@ class EnvInfo:
     @classmethod
     def from_dict(cls, data: dict) -> EnvInfo:
         """What a manifest recorded; an id that names a module (``module:Env``) would import code, so it is refused."""
-        if ":" in str(data["id"]):
+        if ":" in str(data.get("id")):
             raise LwailError(f"recorded env id {data['id']!r} names a module to import; lwail makes only registered ids from disk")
-        return cls(
-            id=data["id"],
-            obs_dim=int(data["obs_dim"]),
-            act_dim=int(data["act_dim"]),
-            action_low=tuple(data["action_low"]),
-            action_high=tuple(data["action_high"]),
-            max_episode_steps=data.get("max_episode_steps"),
-        )
+        try:
+            return cls(
+                id=data["id"],
+                obs_dim=int(data["obs_dim"]),
+                act_dim=int(data["act_dim"]),
+                action_low=tuple(data["action_low"]),
+                action_high=tuple(data["action_high"]),
+                max_episode_steps=data.get("max_episode_steps"),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise LwailError(f"the recorded env {data.get('id')!r} is damaged ({type(exc).__name__}: {exc})") from None
+
+
+class CheckedEnv(gym.Wrapper):
+    """An environment checked as it runs, since it may be the user's own: an exception from ``reset`` or ``step``,
+    an observation of another shape than its space or not finite, or a reward that is not a finite number, is one
+    line naming the env and the step rather than a traceback, or NaN collected and trained on without a word.
+    Invisible otherwise: every value passes through unchanged, and the spec is the env's own (Minari records it)."""
+
+    def __init__(self, env: gym.Env, env_id: str):
+        super().__init__(env)
+        self.env_id = env_id
+        self.episode_step = 0  # steps since the last reset, for the message
+
+    @property
+    def spec(self):
+        return self.env.spec
+
+    def reset(self, **kwargs):
+        self.episode_step = 0
+        try:
+            observation, info = self.env.reset(**kwargs)
+        except Exception as exc:  # whatever the env's own code raises
+            raise self._fault(f"reset() raised {type(exc).__name__}: {exc}") from None
+        self._check_observation(observation)
+        return observation, info
+
+    def step(self, action):
+        self.episode_step += 1
+        try:
+            observation, reward, terminated, truncated, info = self.env.step(action)
+        except Exception as exc:
+            raise self._fault(f"step() raised {type(exc).__name__}: {exc}") from None
+        self._check_observation(observation)
+        try:
+            finite = math.isfinite(float(reward))
+        except (TypeError, ValueError):
+            finite = False
+        if not finite:
+            raise self._fault(f"step() returned the reward {reward!r}; rewards must be finite numbers")
+        return observation, reward, terminated, truncated, info
+
+    def _check_observation(self, observation) -> None:
+        call = "reset()" if self.episode_step == 0 else "step()"
+        if np.shape(observation) != self.observation_space.shape:
+            raise self._fault(f"{call} returned an observation of shape {np.shape(observation)}; its observation space has {self.observation_space.shape}")
+        try:
+            finite = bool(np.isfinite(observation).all())
+        except TypeError:  # not numbers at all
+            finite = False
+        if not finite:
+            raise self._fault(f"{call} returned an observation that is not all finite numbers (NaN or infinite values)")
+
+    def _fault(self, what: str) -> LwailError:
+        where = "at reset" if self.episode_step == 0 else f"at step {self.episode_step} of an episode"
+        return LwailError(f"environment {self.env_id} failed {where}: {what}; fix the environment (lwail cannot learn from it)")
 
 
 def make_env(env_id: str, seed: int | None = None, render: bool = False) -> gym.Env:
-    """Create a gymnasium env with a flat Box observation and a bounded Box action, or explain why not."""
+    """Create a gymnasium env with a flat Box observation and a bounded Box action, checked as it runs (``CheckedEnv``),
+    or explain why not."""
     try:
-        env = gym.make(env_id, render_mode="rgb_array") if render else gym.make(env_id)
+        env = CheckedEnv(gym.make(env_id, render_mode="rgb_array") if render else gym.make(env_id), env_id)
     except gym.error.Error as exc:
         raise LwailError(f"unknown environment {env_id!r}: {exc}") from None
     except ImportError as exc:
         raise LwailError(f"environment {env_id!r} needs a package that is not installed: {exc}") from None
+    except Exception as exc:  # a registered env whose own constructor fails
+        raise LwailError(f"environment {env_id!r} failed to start: {type(exc).__name__}: {exc}") from None
     obs_space, act_space = env.observation_space, env.action_space
     if not isinstance(act_space, gym.spaces.Box):
         env.close()

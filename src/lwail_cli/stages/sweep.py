@@ -72,7 +72,7 @@ class SweepPlan:
         pretrain-icvf the arm's embedding kind."""
         variant = self.variants.get(arm, {})
         fixed = [f"kind={self.embedding_kind(arm)}"] if stage == "pretrain-icvf" and arm is not None else []
-        return cfg.with_overrides(cfg.STAGES[stage](), [*self.overrides.get(stage, ()), *variant.get(stage, ()), *fixed])
+        return cfg.with_overrides(cfg.STAGES[stage](), self.overrides.get(stage, ()), variant.get(stage, ()), fixed)
 
     def names(self, run: SweepRun) -> dict[str, str]:
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
@@ -167,7 +167,7 @@ def _unique_list(value, kind: type) -> bool:
 def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact]) -> Artifact:
     """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents."""
     key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
-    done = store.finished_stage(plan.name, key, kind)
+    done = store.finished_stage(plan.name, key, kind, name)
     if done is not None:
         return done
     artifact = make()
