@@ -95,11 +95,12 @@ def test_the_shipped_plans_are_valid(plan):
     assert read_plan(plan).runs  # every task has bundled demos, every override is a valid setting
 
 
-def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_data(store):
+def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_data(store, monkeypatch):
     import tomllib
 
     import torch
 
+    from lwail_cli.stages import sweep
     from lwail_cli.stages.sweep import _live_status, bundled_demos, collect_task, plan_from_dict, run_task
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
@@ -109,6 +110,16 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert [run.kind for run in plan.runs] == ["icvf", "plain-phi"]
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan  # a report rebuilds the same plan
 
+    shown = []  # what the driver shows of the first run as each of its stages starts, collect's included
+
+    def watched(stage):
+        def call(*args, **kwargs):
+            shown.append(_live_status(store, plan, plan.runs[0]))
+            return stage(*args, **kwargs)
+        return call
+
+    for stage in ("collect", "embed", "warmup", "imitate", "evaluate"):
+        monkeypatch.setattr(sweep, stage, watched(getattr(sweep, stage)))
     threads = torch.get_num_threads()
     try:  # the Ray tasks' bodies, in this process
         demos = bundled_demos(store, plan, "InvertedPendulum-v5").ref
@@ -117,13 +128,17 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
         results = {kind: run_task(str(store.root), plan.to_dict(), "InvertedPendulum-v5", 0, kind, demos, data) for kind in plan.kinds}
     finally:
         torch.set_num_threads(threads)
+    assert shown[:5] == ["collecting data set I", "pre-training φ", "warming up f", "imitating: before the first evaluation", "evaluating"]
+    assert _live_status(store, plan, plan.runs[0]) is None  # done: the driver has it from Ray
     embeddings = {kind: store.resolve(f"ab-invertedpendulum-v5-s0-{kind}", "embedding") for kind in plan.kinds}
-    assert {kind: e.config["icvf"]["layer_norm"] for kind, e in embeddings.items()} == {"icvf": True, "plain-phi": False}
+    planned = {kind: plan.config("pretrain-icvf", kind).icvf.layer_norm for kind in plan.kinds}
+    assert {kind: e.config["icvf"]["layer_norm"] for kind, e in embeddings.items()} == planned and len(set(planned.values())) == 2
     assert {e.config["type"] for e in embeddings.values()} == {"icvf"}
     policies = {kind: store.resolve(results[kind]["policy"], "policy") for kind in plan.kinds}
     assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "plain-phi": 0.9}
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
+    store.set_sweep_status(plan.name, plan.names(plan.runs[1])["policy"], "imitating")  # as a run that imitates says
     assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600, normalized score ")
 
     # a restart takes every finished stage from the ledger, the closing evaluation included

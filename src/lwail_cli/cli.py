@@ -16,7 +16,7 @@ from tqdm import tqdm
 
 from . import __version__
 from . import config as cfg
-from .artifacts import Store
+from .artifacts import Store, check_name
 from .errors import LwailError
 from .stages import collect as collect_stage
 from .stages import curve as curve_stage
@@ -45,10 +45,14 @@ app.add_typer(demos_app, name="demos")
 
 _state: dict = {"store": None, "tensorboard": None}
 
-SEED = typer.Option(0, "--seed", help="Random seed.", min=0)
+# the largest seed every consumer takes: torch takes up to 2**64 - 1, numpy's SeedSequence any, but numpy's legacy
+# np.random.seed (which a user's environment may call with it) only up to 2**32 - 1
+MAX_SEED = 2**32 - 1
+SEED = typer.Option(0, "--seed", help=f"Random seed (0 to {MAX_SEED}).", min=0, max=MAX_SEED)
 NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
 DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
-SET = typer.Option([], "--set", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable.")
+SET = typer.Option([], "--set", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable, "
+                   "each key once, applied together (their order never matters). Lists: 64,64 or [64, 64]; [] is no hidden layer (a linear map).")
 RESUME = typer.Option(False, "--resume", help="Continue the killed run of the same name from its last checkpoint; --steps (the checkpoint's step ends it there), --eval-every, --checkpoint-every, train.eval_episodes and train.average_tau may differ.")
 STEPS = typer.Option(cfg.TrainConfig.steps, "--steps", help="Environment steps (one TD3 update each).")
 EVAL_EVERY = typer.Option(cfg.TrainConfig.eval_every, "--eval-every", help="Evaluate the deterministic actor every this many env steps.")
@@ -87,15 +91,18 @@ def main(
 
 
 def command(parent: typer.Typer, name: str):
-    """Register a command whose LwailError (or OSError from the file system) becomes one line and exit code 1."""
+    """Register a command whose LwailError (or OSError from the file system) becomes one line and exit code 1.
+    A --name is checked before anything runs (an empty one would otherwise fall back to the default silently)."""
 
     def register(function):
         @functools.wraps(function)
         def wrapper(*args, **kwargs):
             try:
+                if kwargs.get("name") is not None:
+                    check_name(kwargs["name"])
                 return function(*args, **kwargs)
             except LwailError as exc:
-                typer.echo(f"error: {exc}", err=True)
+                typer.echo(f"error: {' '.join(str(exc).splitlines())}", err=True)  # one line, whatever an env's exception said
                 raise typer.Exit(1) from None
             except OSError as exc:  # the machine, not lwail: a store that is a file, read-only, a full disk
                 where = f" ({exc.filename})" if exc.filename else ""

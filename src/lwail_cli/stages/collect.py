@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import CollectConfig
-from ..data import Episode, write_minari
+from ..data import Episode, npz_load_bytes, write_minari
 from ..envs import describe_env, make_env
 from ..rollout import rollout
 from .shared import Progress, default_name, read_external, require_memory
@@ -32,6 +32,8 @@ def collect(
 
 def import_dataset(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None) -> Artifact:
     info = describe_env(env_id)
+    if npz is not None:
+        require_memory(npz_load_bytes(npz), f"loading {npz}")
     episodes, source, extra = read_external(info, minari_id=minari_id, npz=npz)
     name = name or default_name(env_id, "imported")
     for episode in episodes:  # a state-only file has neither; Minari's format needs both

@@ -9,13 +9,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import RecordConfig
-from ..data import Episode, validate_episodes, write_npz
+from ..data import Episode, npz_load_bytes, validate_episodes, write_npz
 from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
 from ..rollout import rollout
 from ..sb3 import read_sb3_policy
 from ..video import filmed_rollout
-from .shared import default_name, load_policy, policy_fn, read_external
+from .shared import default_name, load_policy, policy_fn, read_external, require_memory
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
@@ -56,6 +56,8 @@ def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_i
                  imitation: Path | None = None) -> Artifact:
     """State-only episodes from a local Minari dataset, a .npz, or trajectories saved by the `imitation` library."""
     info = describe_env(env_id)
+    if npz is not None:
+        require_memory(npz_load_bytes(npz), f"loading {npz}")
     episodes, source, extra = read_external(info, minari_id=minari_id, npz=npz, imitation=imitation)
     returns = extra.pop("returns", None)
     if returns is None and all(e.rewards is not None for e in episodes):

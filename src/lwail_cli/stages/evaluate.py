@@ -22,8 +22,18 @@ if TYPE_CHECKING:
 def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None,
              video_dir: Path | None = None) -> dict:
     """Mean ± std true return (and normalized score); with ``video_dir``, an MP4 of each episode there."""
+    if demos_ref is not None and not normalized:
+        raise LwailError("--demos gives the expert reference of --normalized: add --normalized, or leave --demos out")
     policy = store.resolve(policy_ref, "policy")
     require_same_env(policy.env, describe_env(policy.env.id), f"policy {policy.ref}")
+    reference = None
+    if normalized:  # found (or refused) before the episodes are played
+        demos = store.resolve(demos_ref, "demos") if demos_ref else lineage_demos(store, policy)
+        if demos is not None:
+            require_same_env(policy.env, demos.env, f"demos {demos.ref}")
+        reference = reference_for_env(policy.env.id, demos)
+        if reference is None:
+            raise LwailError(f"no reference returns for {policy.env.id}: pass --demos with demos that carry returns")
     seeds = range(config.seed, config.seed + config.episodes)
     act = policy_fn(load_policy(policy))
     videos = []
@@ -34,13 +44,7 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
         returns = played.returns
     result = {"policy": policy.ref, "episodes": config.episodes, "seed": config.seed,
               "return_mean": float(returns.mean()), "return_std": float(returns.std())}
-    if normalized:
-        demos = store.resolve(demos_ref, "demos") if demos_ref else lineage_demos(store, policy)
-        if demos is not None:
-            require_same_env(policy.env, demos.env, f"demos {demos.ref}")
-        reference = reference_for_env(policy.env.id, demos)
-        if reference is None:
-            raise LwailError(f"no reference returns for {policy.env.id}: pass --demos with demos that carry returns")
+    if reference is not None:
         result.update(normalized_score=reference.normalize(result["return_mean"]), reference=reference.source)
     # one fixed set of columns, so every row of evals.csv reads back whether or not it was normalized
     row = {"created": now(), **result, "normalized_score": result.get("normalized_score", ""), "reference": result.get("reference", "")}

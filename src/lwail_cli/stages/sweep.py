@@ -11,6 +11,7 @@ still there and intact) and resumes a killed ``imitate`` from its checkpoint.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -34,6 +35,7 @@ if TYPE_CHECKING:
     from ..artifacts import Artifact
 
 PLAN_STAGES = ("collect", "pretrain-icvf", "warmup-disc", "imitate", "eval")
+IMITATING = "imitating"  # the status line whose step and score the driver reads from the run's curve
 EMBEDDINGS = ("icvf", "identity")
 PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants", "threads"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
@@ -184,8 +186,13 @@ def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
     """Data set I of a task and seed, shared by the runs of every embedding kind (its ref returned)."""
     store, plan = _worker(root, plan_dict)
     name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["data"], plan.config("collect")
+    waiting = [plan.names(SweepRun(task, seed, kind))["policy"] for kind in plan.kinds]  # the runs that need this data
+    for run_name in waiting:
+        store.set_sweep_status(plan.name, run_name, "collecting data set I")
     data = _once(store, plan, "dataset", name, {"config": cfg.to_dict(config), "seed": seed, "task": task},
                  lambda: collect(store, env_id=task, config=config, seed=seed, name=name))
+    for run_name in waiting:  # queued again, until a CPU is free for the run itself
+        store.clear_sweep_status(plan.name, run_name)
     return data.ref
 
 
@@ -196,20 +203,26 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     store, plan = _worker(root, plan_dict)
     run, device = SweepRun(task, seed, kind), torch.device("cpu")
     names = plan.names(run)
+    status = functools.partial(store.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
     demos, data = store.resolve(demos_ref, "demos"), store.resolve(data_ref, "dataset")
+    status("pre-training φ")
     embed_config = plan.config("pretrain-icvf", kind)
     embedding = _once(store, plan, "embedding", names["embedding"], _record(embed_config, seed, data, demos),
                       lambda: embed(store, data_ref=data.ref, config=embed_config, seed=seed, name=names["embedding"], device=device, demos_ref=demos.ref))
+    status("warming up f")
     warmup_config = plan.config("warmup-disc", kind)
     disc = _once(store, plan, "discriminator", names["disc"], _record(warmup_config, seed, embedding, demos),
                  lambda: warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=warmup_config, seed=seed, name=names["disc"], device=device))
+    status(IMITATING)
     imitation_config = plan.config("imitate", kind)
     policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
                    lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
                                    seed=seed, name=names["policy"], device=device, resume=store.has_checkpoint("policy", names["policy"])))
+    status("evaluating")
     eval_config = plan.config("eval", kind)  # a restart does not evaluate a finished run again
     result = (logged_normalized_evaluation(store, policy_ref=policy.ref, config=eval_config)
               or evaluate(store, policy_ref=policy.ref, config=eval_config, normalized=True))
+    store.clear_sweep_status(plan.name, names["policy"])  # done: the driver says so from Ray
     return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
 
 
@@ -239,6 +252,8 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     if address is None and plan.threads > cores:  # Ray would queue the runs forever
         raise LwailError(f"the plan gives each run {plan.threads} threads; this machine has {cores} cores")
     demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
+    for run in plan.runs:  # what a killed sweep's runs last said is not what they do now
+        store.clear_sweep_status(plan.name, plan.names(run)["policy"])
     ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
@@ -258,7 +273,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
                     status[finished.label] = f"failed: {cause}"
                     failures.append(f"{finished.label}: {cause}")
             for waiting in pending.values():
-                status[waiting.label] = _live_status(store, plan, waiting) or status[waiting.label]
+                status[waiting.label] = _live_status(store, plan, waiting) or "queued"
             if on_status is not None and status != shown:
                 on_status(dict(status))
                 shown = dict(status)
@@ -268,21 +283,18 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
 
 
 def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
-    """The stage a run is in, from what it has written so far (None while nothing is)."""
-    names = plan.names(run)
+    """What a run does now, as its Ray task last said (None before it starts: queued); while it imitates, with the
+    step and latest normalized score of its curve."""
+    name = plan.names(run)["policy"]
+    line = store.sweep_status(plan.name, name)
+    if line != IMITATING:
+        return line
     try:
-        curve, _ = read_curve(store, ref=names["policy"])
-    except LwailError:
+        curve, _ = read_curve(store, ref=name)
+    except LwailError:  # no evaluation yet
         curve = None
-    if curve is not None and not curve.empty:
-        last = curve.iloc[-1]
-        score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
-        return f"imitating: step {int(last['step'])}{score}"
-    for kind, artifact, line in (("discriminator", "disc", "imitating: before the first evaluation"),
-                                 ("embedding", "embedding", "warming up f")):
-        try:
-            store.resolve(names[artifact], kind)
-            return line
-        except LwailError:
-            pass
-    return "pre-training φ" if store.has_checkpoint("embedding", names["embedding"]) else None
+    if curve is None or curve.empty:
+        return f"{IMITATING}: before the first evaluation"
+    last = curve.iloc[-1]
+    score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
+    return f"{IMITATING}: step {int(last['step'])}{score}"
