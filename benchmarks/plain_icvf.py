@@ -12,9 +12,14 @@ from lwail_cli.config import ICVFConfig
 
 
 def _mlp(in_dim: int, config: ICVFConfig) -> nn.Sequential:
+    """Every layer activated (φ, ψ and T all end in a GELU), with ``icvf.layer_norm``'s LayerNorm placement."""
     layers: list[nn.Module] = []
     for fan_in, fan_out in zip((in_dim, *config.hidden), (*config.hidden, config.embedding_dim)):
-        layers += [nn.Linear(fan_in, fan_out), nn.LayerNorm(fan_out), nn.GELU()]
+        layers += {
+            "none": [nn.Linear(fan_in, fan_out), nn.GELU()],  # the authors' PyTorch ICVF (NormalMLP)
+            "after": [nn.Linear(fan_in, fan_out), nn.GELU(), nn.LayerNorm(fan_out)],  # the JAX ICVF's LayerNormMLP
+            "before": [nn.Linear(fan_in, fan_out), nn.LayerNorm(fan_out), nn.GELU()],
+        }[config.layer_norm]
     return nn.Sequential(*layers)
 
 
@@ -42,13 +47,12 @@ class PlainICVF:
         for source, members in ((learner.model, self.members), (learner.target, self.targets)):
             for index, member in enumerate(members):
                 for stacked, plain in ((source.phi, member.phi), (source.psi, member.psi), (source.intention, member.intention)):
-                    linears = [m for m in plain if isinstance(m, nn.Linear)]
-                    norms = [m for m in plain if isinstance(m, nn.LayerNorm)]
-                    for layer, (linear, norm) in enumerate(zip(linears, norms)):
+                    for layer, linear in enumerate(m for m in plain if isinstance(m, nn.Linear)):
                         linear.weight.data.copy_(stacked.weights[layer][index].T)
                         linear.bias.data.copy_(stacked.biases[layer][index, 0])
-                        norm.weight.data.copy_(stacked.norm_weights[layer][index, 0])
-                        norm.bias.data.copy_(stacked.norm_biases[layer][index, 0])
+                    for layer, norm in enumerate(m for m in plain if isinstance(m, nn.LayerNorm)):
+                        norm.weight.data.copy_(stacked.norm_weights[str(layer)][index, 0])
+                        norm.bias.data.copy_(stacked.norm_biases[str(layer)][index, 0])
                 for stacked, plain in ((source.matrix_a, member.matrix_a), (source.matrix_b, member.matrix_b)):
                     plain.weight.data.copy_(stacked.weights[0][index].T)
                     plain.bias.data.copy_(stacked.biases[0][index, 0])

@@ -17,6 +17,14 @@ def test_override_nested_fields_with_their_types():
     assert warm.critic.tanh is True and warm.critic.hidden == (16,)
 
 
+def test_a_manifest_of_an_older_lwail_reads_layer_norm_as_the_placement_it_used():
+    assert cfg.from_dict(cfg.ICVFConfig, {"layer_norm": True}).layer_norm == "before"  # LayerNorm before each GELU
+    assert cfg.from_dict(cfg.ICVFConfig, {"layer_norm": False}).layer_norm == "none"
+    assert cfg.with_overrides(cfg.EmbedConfig(), ["icvf.layer_norm=false"]).icvf.layer_norm == "none"  # older plans
+    with pytest.raises(LwailError, match="icvf.layer_norm must be one of none, after, before, got 'middle'"):
+        cfg.with_overrides(cfg.EmbedConfig(), ["icvf.layer_norm=middle"])
+
+
 def test_config_round_trips_through_a_manifest_dict():
     config = cfg.with_overrides(cfg.ImitationConfig(), ["td3.hidden=16", "expert_episodes=3"])
     assert cfg.from_dict(cfg.ImitationConfig, cfg.to_dict(config)) == config

@@ -17,8 +17,9 @@ from lwail_cli.discriminator import Critic, DiscriminatorTrainer  # noqa: E402
 from lwail_cli.icvf import GoalSampler, ICVFLearner  # noqa: E402
 
 
-def test_fast_icvf_update_equals_textbook_icvf():
-    config = ICVFConfig(hidden=(16,), embedding_dim=16)
+@pytest.mark.parametrize("layer_norm", ["none", "after", "before"])
+def test_fast_icvf_update_equals_textbook_icvf(layer_norm):
+    config = ICVFConfig(hidden=(16,), embedding_dim=16, layer_norm=layer_norm)
     rng = np.random.default_rng(0)
     episodes = [Episode(observations=rng.normal(size=(12, 5)).astype(np.float32)) for _ in range(6)]
     torch.manual_seed(0)

@@ -15,7 +15,7 @@ seeds = [0]
 embeddings = ["icvf", "plain-phi"]
 [variants.plain-phi]
 kind = "icvf"
-pretrain-icvf = ["icvf.layer_norm=false"]
+pretrain-icvf = ["icvf.layer_norm=none"]
 '''
 
 
@@ -35,8 +35,8 @@ pretrain-icvf = ["icvf.layer_norm=false"]
         (VARIANT_PLAN.replace('[variants.plain-phi]', '[variants.icvf]'), "would shadow the embedding kind icvf"),
         (VARIANT_PLAN.replace('kind = "icvf"', 'kind = "pca"'), "needs kind = one of ['icvf', 'identity']"),
         (VARIANT_PLAN + 'collect = ["transitions=5"]', "[variants.plain-phi] may hold lists of field=value for the stages ['pretrain-icvf'"),
-        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
-        (VARIANT_PLAN.replace('"icvf.layer_norm=false"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
         (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 0', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = "2"', "'threads' must be an integer from 1 to 256"),
@@ -105,7 +105,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
     raw.update(name="ab", seeds=[0], embeddings=["icvf", "plain-phi"],
-               variants={"plain-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=false"], "imitate": ["td3.gamma=0.9"]}})
+               variants={"plain-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=none"], "imitate": ["td3.gamma=0.9"]}})
     plan = plan_from_dict(raw, "test plan")
     assert [run.kind for run in plan.runs] == ["icvf", "plain-phi"]
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan  # a report rebuilds the same plan

@@ -11,9 +11,10 @@ from lwail_cli.config import TD3Config, TrainConfig  # noqa: E402
 from lwail_cli.envs import describe_env  # noqa: E402
 from lwail_cli.replay import ReplayBuffer  # noqa: E402
 from lwail_cli.td3 import TD3  # noqa: E402
-from lwail_cli.training import train_td3  # noqa: E402
+from lwail_cli.training import RunState, is_better, train_td3  # noqa: E402
 from lwail_cli.evaluation import random_policy_return  # noqa: E402
 from lwail_cli.rollout import rollout  # noqa: E402
+from lwail_cli.seeds import stream_seeds  # noqa: E402
 
 
 def random_batch(generator, size=64, obs_dim=11, act_dim=3):
@@ -81,10 +82,11 @@ def test_the_kept_network_is_evaluated_and_the_other_on_the_same_episodes(kept, 
     torch.manual_seed(0)
     agent = TD3(env, td3)
     run = train_td3("InvertedPendulum-v5", agent, ReplayBuffer(600, env.obs_dim, env.act_dim), td3, train, seed=0)
-    seeds = range(train.eval_seed_offset, train.eval_seed_offset + 3)
+    seeds = stream_seeds(0, "evaluation", 3)
     row = run.history[-1]
     assert row["return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=kept), seeds).returns.mean()
     assert row[f"{other}_return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=other), seeds).returns.mean()
+    assert row["episodes_terminated"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=kept), seeds).terminated.sum() > 0
     kept_weights, other_weights = agent.network(kept).state_dict(), agent.network(other).state_dict()
     assert all(torch.equal(run.best_actor[k], kept_weights[k]) for k in kept_weights)
     assert not torch.equal(kept_weights["net.0.weight"], other_weights["net.0.weight"])  # the target trails the actor
@@ -111,7 +113,7 @@ def test_a_slower_average_of_the_actor_is_evaluated_and_kept_without_changing_tr
     agent, run = _short_run(TrainConfig(steps=600, eval_every=300, eval_episodes=2, average_tau=0.001, policy="average"))
     trained = ("actor", "actor_target", "critic", "critic_target")
     assert all(torch.equal(plain.state_dict()[n][k], agent.state_dict()[n][k]) for n in trained for k in plain.state_dict()[n])
-    seeds = range(TrainConfig().eval_seed_offset, TrainConfig().eval_seed_offset + 2)
+    seeds = stream_seeds(0, "evaluation", 2)
     row = run.history[-1]
     for name, prefix in (("average", ""), ("target", "target_"), ("actor", "actor_")):
         assert row[f"{prefix}return_mean"] == rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=name), seeds).returns.mean()
@@ -137,3 +139,14 @@ def test_keeping_the_average_needs_a_rate():
 
     with pytest.raises(LwailError, match="train.policy=average needs train.average_tau > 0"):
         TrainConfig(policy="average")
+
+
+def test_an_evaluation_without_a_fall_is_kept_over_a_higher_one_with_a_fall():
+    run = RunState()
+    assert is_better({"return_mean": 3000.0, "episodes_terminated": 1}, run)  # the first evaluation always
+    run.best_actor, run.best_return, run.best_complete = {}, 3000.0, False
+    assert is_better({"return_mean": 2500.0, "episodes_terminated": 0}, run)
+    run.best_return, run.best_complete = 2500.0, True
+    assert not is_better({"return_mean": 4000.0, "episodes_terminated": 2}, run)
+    assert not is_better({"return_mean": 2400.0, "episodes_terminated": 0}, run)
+    assert is_better({"return_mean": 2600.0, "episodes_terminated": 0}, run)

@@ -20,10 +20,12 @@ from dataclasses import dataclass, field
 from .errors import LwailError
 
 
-def setting(default, doc: str, *, low=None, high=None, below=None, choices=None):
+def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None):
     """A config field: its default, a one-line doc, and the bounds checked on every construction
-    (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values)."""
-    return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices})
+    (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values). ``aliases`` maps
+    values an older lwail recorded (or a plan still spells) to the value they mean now."""
+    return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices,
+                                            "aliases": aliases or {}})
 
 
 def section(factory, doc: str):
@@ -37,6 +39,9 @@ class Validated:
     def __post_init__(self) -> None:
         hints = typing.get_type_hints(type(self))
         for f in dataclasses.fields(self):
+            value = vars(self)[f.name]
+            if isinstance(value, typing.Hashable) and value in f.metadata.get("aliases", {}):
+                object.__setattr__(self, f.name, f.metadata["aliases"][value])  # frozen: the one place a field is rewritten
             _check(type(self).__name__, f, hints[f.name], vars(self)[f.name])
         self.check()
 
@@ -76,6 +81,7 @@ def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
 
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
+LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 # train keys a resumed run may change: its budget and how it is observed, none of which changes what it trains
 # (evaluations use their own environments and no training randomness; tests/test_lwail.py checks it bit for bit)
@@ -113,7 +119,6 @@ class TrainConfig(Validated):
     steps: int = setting(1_000_000, "environment steps, one TD3 update each", low=1, high=MAX_STEPS)
     eval_every: int = setting(10_000, "evaluate the deterministic actor every this many env steps", low=1, high=MAX_STEPS)
     eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
-    eval_seed_offset: int = setting(10_000, "evaluation episodes use seeds run seed + this + 0..n-1", low=0, high=2**31)
     checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
     policy: str = setting("target", "the network evaluated and kept: target (the actor's Polyak average; docs/algorithm.md), actor (the online one) or average", choices=POLICY_NETWORKS)
     evaluate_other: bool = setting(True, "also evaluate the networks policy does not name on the same episodes (<name>_* columns)")
@@ -157,7 +162,9 @@ class ICVFConfig(Validated):
     batch_size: int = setting(256, "(s, s', s+, z) tuples per gradient step", low=1, high=65_536)
     hidden: tuple[int, ...] = setting((256,), "hidden widths of φ, ψ and T before the embedding layer", low=1, high=4096)
     embedding_dim: int = setting(256, "dimension of φ(s)", low=1, high=4096)
-    layer_norm: bool = setting(True, "LayerNorm after each layer of φ, ψ, T (JAX ICVF; the authors' PyTorch port has none)")
+    layer_norm: str = setting(
+        "before", "LayerNorm in φ, ψ, T: none (the authors' PyTorch ICVF), after each GELU (the JAX ICVF's LayerNormMLP) "
+        "or before it (lwail's own); docs/algorithm.md", choices=LAYER_NORMS, aliases={True: "before", False: "none", "true": "before", "false": "none"})
     ensemble: int = setting(2, "independent value functions (φ is taken from the first)", low=1, high=64)
     lr: float = setting(3e-4, "Adam learning rate", low=1e-7, high=1.0)
     gamma: float = setting(0.99, "discount of the intention-conditioned values", low=0.0, below=1.0)

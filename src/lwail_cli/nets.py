@@ -36,8 +36,9 @@ class StackedMLP(nn.Module):
     """``members`` MLPs with identical shapes and independent weights.
 
     Input ``(B, in)`` (shared by every member) or ``(members, B, in)``; output ``(members, B, out)``.
-    Initialisation matches ``nn.Linear`` member by member. Layer norm, when on, is applied after
-    each linear layer before the activation (as in the ICVF code's ``LayerNormMLP``).
+    Initialisation matches ``nn.Linear`` member by member. ``layer_norm`` places a LayerNorm in each layer:
+    ``"none"``; ``"after"`` the activation, on activated layers only (the JAX ICVF's ``LayerNormMLP``:
+    Dense → GELU → LayerNorm); ``"before"`` it, on every layer (Linear → LayerNorm → activation).
     """
 
     def __init__(
@@ -48,7 +49,7 @@ class StackedMLP(nn.Module):
         out_dim: int,
         activation: str = "relu",
         activate_final: bool = False,
-        layer_norm: bool = False,
+        layer_norm: str = "none",
     ):
         super().__init__()
         self.members = members
@@ -56,22 +57,29 @@ class StackedMLP(nn.Module):
         self.activate_final = activate_final
         self.layer_norm = layer_norm
         dims = (in_dim, *hidden, out_dim)
+        self.depth = len(dims) - 1
         self.weights = nn.ParameterList()
         self.biases = nn.ParameterList()
-        self.norm_weights = nn.ParameterList()
-        self.norm_biases = nn.ParameterList()
-        for fan_in, fan_out in zip(dims[:-1], dims[1:]):
+        # keyed by layer index: "after" leaves an unactivated last layer without one (state keys as a list's when all have one)
+        self.norm_weights = nn.ParameterDict()
+        self.norm_biases = nn.ParameterDict()
+        for index, (fan_in, fan_out) in enumerate(zip(dims[:-1], dims[1:])):
             bound = 1.0 / math.sqrt(fan_in)
             self.weights.append(nn.Parameter(torch.empty(members, fan_in, fan_out).uniform_(-bound, bound)))
             self.biases.append(nn.Parameter(torch.empty(members, 1, fan_out).uniform_(-bound, bound)))
-            if layer_norm:
-                self.norm_weights.append(nn.Parameter(torch.ones(members, 1, fan_out)))
-                self.norm_biases.append(nn.Parameter(torch.zeros(members, 1, fan_out)))
+            if self._normalised(index):
+                self.norm_weights[str(index)] = nn.Parameter(torch.ones(members, 1, fan_out))
+                self.norm_biases[str(index)] = nn.Parameter(torch.zeros(members, 1, fan_out))
+
+    def _activated(self, index: int) -> bool:
+        return index < self.depth - 1 or self.activate_final
+
+    def _normalised(self, index: int) -> bool:
+        return self.layer_norm == "before" or self.layer_norm == "after" and self._activated(index)
 
     def forward(self, x: torch.Tensor, members: slice = slice(None), detach: bool = False) -> torch.Tensor:
         """Run the selected members; ``detach`` blocks gradients into the weights (not the input)."""
         activate = ACTIVATIONS[self.activation]
-        last = len(self.weights) - 1
         for index, (weight, bias) in enumerate(zip(self.weights, self.biases)):
             weight, bias = weight[members], bias[members]
             if detach:
@@ -82,22 +90,16 @@ class StackedMLP(nn.Module):
                 x = (x @ wide).view(x.shape[0], count, fan_out).transpose(0, 1) + bias
             else:
                 x = torch.baddbmm(bias, x, weight)
-            if self.layer_norm:
-                gain, shift = self.norm_weights[index][members], self.norm_biases[index][members]
-                if detach:
-                    gain, shift = gain.detach(), shift.detach()
-                x = F.layer_norm(x, x.shape[-1:]) * gain + shift
-            if index < last or self.activate_final:
+            if self.layer_norm == "before":
+                x = self._norm(x, index, members, detach)
+            if self._activated(index):
                 x = activate(x)
+                if self.layer_norm == "after":
+                    x = self._norm(x, index, members, detach)
         return x
 
-    def member_state(self, member: int) -> dict[str, torch.Tensor]:
-        """One member's weights as a flat dict (for exporting a single network)."""
-        state = {}
-        for index, (weight, bias) in enumerate(zip(self.weights, self.biases)):
-            state[f"{index}.weight"] = weight[member].detach().clone()
-            state[f"{index}.bias"] = bias[member, 0].detach().clone()
-            if self.layer_norm:
-                state[f"{index}.norm_weight"] = self.norm_weights[index][member, 0].detach().clone()
-                state[f"{index}.norm_bias"] = self.norm_biases[index][member, 0].detach().clone()
-        return state
+    def _norm(self, x: torch.Tensor, index: int, members: slice, detach: bool) -> torch.Tensor:
+        gain, shift = self.norm_weights[str(index)][members], self.norm_biases[str(index)][members]
+        if detach:
+            gain, shift = gain.detach(), shift.detach()
+        return F.layer_norm(x, x.shape[-1:]) * gain + shift

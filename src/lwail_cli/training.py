@@ -18,6 +18,7 @@ import torch
 
 from .envs import make_env
 from .rollout import rollout
+from .seeds import stream_seeds
 
 if TYPE_CHECKING:
     from .config import TD3Config, TrainConfig
@@ -72,8 +73,9 @@ class RunState:
 
 def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
     """True return (and score) of the deterministic ``train.policy`` network, the reward model's diagnostics on the
-    same episodes and, with ``train.evaluate_other``, each other network's return (and score) on those episodes too."""
-    seeds = range(seed, seed + train.eval_episodes)
+    same episodes and, with ``train.evaluate_other``, each other network's return (and score) on those episodes too.
+    The episodes are the run seed's evaluation stream: the same at every evaluation of a run."""
+    seeds = stream_seeds(seed, "evaluation", train.eval_episodes)
     evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
     row = _scores(evaluation.returns, reference, "", std=True) | {"episodes_terminated": int(evaluation.terminated.sum())}
     row |= reward_model.metrics(evaluation)
@@ -155,9 +157,10 @@ def train_td3(
     Seed torch before building ``agent`` (and anything else random) for a reproducible run."""
     reward_model = reward_model or EnvironmentReward()
     env = make_env(env_id)
-    obs, _ = env.reset(seed=seed)
-    env.action_space.seed(seed)
-    noise_rng = np.random.default_rng(seed)
+    online_seed = stream_seeds(seed, "online")[0]
+    obs, _ = env.reset(seed=online_seed)
+    env.action_space.seed(online_seed)
+    noise_rng = np.random.default_rng(online_seed)
     run = RunState()
     if resume is not None:
         agent.load_state_dict(resume["agent"])
@@ -177,7 +180,7 @@ def train_td3(
     def evaluate_now() -> None:
         run.wall_time = time.perf_counter() - started
         row = {"step": run.step, "wall_time": run.wall_time}
-        row.update(evaluate_policy(agent, train, env_id, seed + train.eval_seed_offset, reference, reward_model))
+        row.update(evaluate_policy(agent, train, env_id, seed, reference, reward_model))
         if is_better(row, run):
             run.best_actor = {k: v.detach().clone() for k, v in agent.network(train.policy).state_dict().items()}
             run.best_step, run.best_return, run.best_complete = run.step, row["return_mean"], row["episodes_terminated"] == 0

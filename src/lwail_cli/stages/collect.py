@@ -11,6 +11,7 @@ from ..config import CollectConfig
 from ..data import Episode, npz_load_bytes, write_minari
 from ..envs import describe_env, make_env
 from ..rollout import rollout
+from ..seeds import stream_seeds
 from .shared import Progress, default_name, read_external, require_memory
 
 if TYPE_CHECKING:
@@ -23,7 +24,7 @@ def collect(
     info = describe_env(env_id)
     # recorded steps are per-step arrays in Python lists, then copied into Minari's format: ~3 float64 copies + object overhead
     require_memory(config.transitions * (3 * 8 * (info.obs_dim + info.act_dim + 1) + 400), f"collecting {config.transitions} transitions")
-    episodes = rollout(env_id, None, [seed], record=True, transitions=config.transitions,
+    episodes = rollout(env_id, None, stream_seeds(seed, "collect"), record=True, transitions=config.transitions,
                        on_step=None if on_progress is None else lambda done: on_progress(done, {})).episodes
     name = name or default_name(env_id, "random")
     return _write(store, name, info, episodes, {"source": "uniform-random", "transitions": config.transitions}, seed,
