@@ -537,7 +537,10 @@ def _read_small(path: Path, limit: int = 4096) -> bytes | None:
 
 
 def _write_atomically(path: Path, text: str) -> None:
+    """Replace a small file of the run area whole; a folder found in its place (damage) is replaced too."""
     path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
     partial = path.with_suffix(".partial")
     partial.write_text(text)
     os.replace(partial, path)
