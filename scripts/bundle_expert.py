@@ -4,8 +4,10 @@
 
 copies the demos artifact's ``demos.npz`` (state-only, compressed float32) to ``src/lwail_cli/demos/<ENV>.npz``
 and writes the env's entry in ``experts.json`` from the demos' and the expert's manifests: mean return,
-D4RL-normalized score, training steps, wall time, the evaluation whose actor was kept, and the command that
-continues training. The demos must come from ``lwail expert record`` of an ``lwail expert train`` policy.
+D4RL-normalized score, training steps, wall time, the evaluation whose actor was kept and why, the command that
+continues training, and what a user's run may draw: how many episodes ran to the time limit and the lowest
+return against the mean (a one-trajectory run imitates the first episode, so every episode should be an
+expert's). The demos must come from ``lwail expert record`` of an ``lwail expert train`` policy.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 from lwail_cli import config as cfg
 from lwail_cli.artifacts import Store
 from lwail_cli.evaluation import d4rl_reference
-from lwail_cli.stages.shared import parent
+from lwail_cli.stages.shared import load_demos, parent
 
 BUNDLE = Path(__file__).resolve().parents[1] / "src" / "lwail_cli" / "demos"
 
@@ -29,6 +31,7 @@ def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
     if expert.manifest.get("trained_on") != "true reward":
         raise SystemExit(f"{demos.ref} was not recorded from an `lwail expert train` policy")
     env_id, train = demos.env.id, expert.config["train"]
+    episodes, returns = load_demos(demos)
     defaults = json.loads(json.dumps(cfg.to_dict(cfg.TD3Config())))
     overrides = "".join(f" --set td3.{k}={v}" for k, v in expert.config["td3"].items() if defaults[k] != v)
     entry = {
@@ -36,11 +39,14 @@ def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
         "return_std": demos.metrics["return_std"],
         "episodes": demos.metrics["episodes"],
         "obs_dim": demos.env.obs_dim,
+        "complete_episodes": sum(not episode.terminated for episode in episodes),  # none ended by a fall
+        "lowest_return": float(returns.min()),
+        "lowest_to_mean": float(returns.min() / returns.mean()),
         "training_steps": expert.metrics["env_steps"],
         "wall_time_s": expert.metrics["wall_time_s"],
         "expert": (
             f"TD3 on the true reward, {expert.metrics['env_steps']} env steps, evaluated every {train['eval_every']} "
-            f"({expert.metrics['actor']}), seed {expert.manifest['seed']} "
+            f"({expert.metrics['actor']}: {expert.metrics.get('kept_because', 'the highest mean return')}), seed {expert.manifest['seed']} "
             f"(lwail expert train {env_id} --steps {train['steps']} --eval-every {train['eval_every']}{overrides})"
         ),
     }

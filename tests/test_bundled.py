@@ -1,13 +1,18 @@
 """The demos shipped with lwail: each imports for its env and agrees with what experts.json says of its expert."""
 
 import json
+import sys
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
+from lwail_cli import config as cfg
 from lwail_cli.envs import describe_env
 from lwail_cli.evaluation import d4rl_reference
-from lwail_cli.stages import demos
+from lwail_cli.stages import demos, expert
+from lwail_cli.stages.shared import load_demos
 
 BUNDLE = resources.files("lwail_cli") / "demos"
 EXPERTS = json.loads((BUNDLE / "experts.json").read_text())
@@ -31,3 +36,19 @@ def test_bundled_demos_import_and_match_their_expert(store, env_id):
     reference = d4rl_reference(env_id)
     if reference is not None:
         assert expert["d4rl_normalized"] == pytest.approx(reference.normalize(expert["mean_return"]))
+
+
+def test_a_bundle_entry_says_which_evaluation_was_kept_and_what_a_run_may_draw(store):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from scripts.bundle_expert import expert_entry
+
+    td3 = cfg.TD3Config(hidden=(16,), random_steps=200, learning_starts=200, batch_size=64)
+    train = cfg.TrainConfig(steps=400, eval_every=200, eval_episodes=3)
+    policy = expert.train_expert(store, env_id="InvertedPendulum-v5", config=cfg.ExpertConfig(td3=td3, train=train), seed=0, device=torch.device("cpu"))
+    recorded = demos.record_demos(store, policy_ref=policy.ref, config=cfg.RecordConfig(episodes=4), seed=0)
+    env_id, _, entry = expert_entry(store, recorded.ref)
+    episodes, returns = load_demos(recorded)
+    assert env_id == "InvertedPendulum-v5" and entry["episodes"] == 4
+    assert entry["complete_episodes"] == sum(not e.terminated for e in episodes) < 4  # a barely trained pendulum falls
+    assert entry["lowest_return"] == returns.min() and entry["lowest_to_mean"] == pytest.approx(returns.min() / returns.mean())
+    assert policy.metrics["kept_because"] in entry["expert"] and f"at step {policy.metrics['actor'].split()[-1]}" in entry["expert"]

@@ -63,6 +63,31 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     plt.close(fig)
 
 
+def plot_side_by_side(curves: dict[str, pd.DataFrame], path: Path) -> None:
+    """One panel per run (e.g. the experts of several tasks): the true return of the kept network and of each other
+    network logged, with a cross at every evaluation where an episode of the kept network ended early (a fall)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(curves), figsize=(5 * len(curves), 3.8), squeeze=False)
+    for ax, (title, history) in zip(axes[0], curves.items()):
+        ax.plot(history["step"], history["return_mean"], marker="o", markersize=2, label="kept network")
+        for name in POLICY_NETWORKS:
+            if f"{name}_return_mean" in history:
+                ax.plot(history["step"], history[f"{name}_return_mean"], linestyle="--", alpha=0.6, label=f"{name} network (not kept)")
+        if "episodes_terminated" in history:
+            fell = history[history["episodes_terminated"] > 0]
+            ax.scatter(fell["step"], fell["return_mean"], marker="x", color="red", zorder=3, label="an episode ended early")
+        ax.set(title=title, xlabel="environment steps", ylabel="true return (mean of the evaluation episodes)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
     """Mean ± std over seeds of the normalized score against env steps, one band per embedding kind."""
     import matplotlib
