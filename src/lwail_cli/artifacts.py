@@ -218,8 +218,8 @@ class Store:
                 for kind in {entry["ref"].split("/")[0] for entry in artifact.manifest.get("parents", [])}:
                     self.resolve_parent(artifact, kind)
                 results.append((str(path), None))
-            except (LwailError, KeyError, TypeError, AttributeError) as exc:
-                results.append((str(path), str(exc) if isinstance(exc, LwailError) else f"malformed manifest ({type(exc).__name__}: {exc})"))
+            except LwailError as exc:  # a malformed manifest included (_malformed)
+                results.append((str(path), str(exc)))
         return results
 
     def _load(self, path: Path) -> Artifact:
@@ -389,9 +389,10 @@ class Store:
             yield
         except BaseException:
             if _folder_state(folder) == found:  # refused before writing anything: no trace of the attempt
-                lock.unlink()
-                if stale is not None:
-                    lock.write_bytes(stale)
+                with contextlib.suppress(OSError):  # best effort: the refusal itself is what must reach the user
+                    lock.unlink()
+                    if stale is not None:
+                        lock.write_bytes(stale)
                 for directory in created:  # deepest first; one another run has filled since stays
                     with contextlib.suppress(OSError):
                         directory.rmdir()
