@@ -10,6 +10,7 @@ names its class, so ``pytest -rf`` on an older lwail counts what each family got
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
@@ -142,16 +143,16 @@ def _on_alarm(signum, frame):
     raise Hang
 
 
-def invoke(ctx: Context, args) -> tuple[object, bool]:
-    """The command's result, and whether it had to be stopped as hanging."""
+@contextlib.contextmanager
+def _deadline():
+    """Raise Hang in whatever runs for more than HANG_SECONDS (a blocking open of a FIFO included)."""
     previous = signal.signal(signal.SIGALRM, _on_alarm)
     signal.alarm(HANG_SECONDS)
     try:
-        result = ctx.cli(*args)
+        yield
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
-    return result, isinstance(result.exception, Hang)
 
 
 def refused(args_of: Callable[[Context], tuple], message: str, exit_code: int = 1) -> Callable[[Context], str]:
@@ -159,8 +160,9 @@ def refused(args_of: Callable[[Context], tuple], message: str, exit_code: int = 
     def run(ctx: Context) -> str:
         args = args_of(ctx)
         before = snapshot(ctx.store.root)
-        result, hung = invoke(ctx, args)
-        if hung:
+        with _deadline():
+            result = ctx.cli(*args)  # the runner keeps what the command raised, Hang included
+        if isinstance(result.exception, Hang):
             return "hang"
         if "Traceback" in result.output or not isinstance(result.exception, (SystemExit, type(None))):
             return f"traceback ({type(result.exception).__name__})"
@@ -180,19 +182,15 @@ def refused(args_of: Callable[[Context], tuple], message: str, exit_code: int = 
 def guarded(check: Callable[[Context], bool]) -> Callable[[Context], str]:
     """A legitimate input (or one with a documented meaning): ``check`` says whether it did what is documented."""
     def run(ctx: Context) -> str:
-        previous = signal.signal(signal.SIGALRM, _on_alarm)
-        signal.alarm(HANG_SECONDS)
         try:
-            return "clean" if check(ctx) else "not as documented"
+            with _deadline():
+                return "clean" if check(ctx) else "not as documented"
         except Hang:
             return "hang"
         except LwailError as exc:
             return f"refused: {exc}"
         except Exception as exc:
             return f"traceback ({type(exc).__name__})"
-        finally:
-            signal.alarm(0)
-            signal.signal(signal.SIGALRM, previous)
     return run
 
 
@@ -208,17 +206,6 @@ def _fifo(path: Path) -> None:
 
 
 # ------------------------------------------------------------------------------ damaged run files
-def _plant(where: Callable[[Context], Path], make: Callable[[Path], None]) -> Callable[[Context], None]:
-    def plant(ctx: Context) -> None:
-        path = where(ctx)
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path)
-        else:
-            path.unlink(missing_ok=True)
-        make(path)
-    return plant
-
-
 def _torch_bytes(value) -> bytes:
     buffer = io.BytesIO()
     torch.save(value, buffer)
@@ -249,10 +236,11 @@ DAMAGED_CHECKPOINTS = {
 
 def _damaged_run_file(stage: str, filename: str, make) -> Callable[[Context], str]:
     kind, name, args = RESUMES[stage]
-    plant = _plant(lambda ctx: ctx.run_folder(stage) / filename, make)
 
     def args_of(ctx: Context) -> tuple:
-        plant(ctx)
+        path = ctx.run_folder(stage) / filename  # the killed run's checkpoint, or its lock (none: the run was killed)
+        path.unlink(missing_ok=True)
+        make(path)
         return (*args, "--name", name, "--resume")
 
     return refused(args_of, "damaged" if filename == "lock" else "checkpoint")
