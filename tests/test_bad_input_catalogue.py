@@ -289,7 +289,7 @@ DAMAGED_LEDGERS = {
     "binary": lambda ctx, p, kind: p.write_bytes(b"\xff\xfe\x00"),
     "empty": lambda ctx, p, kind: p.write_text(""),
     "naming another artifact of its kind": _foreign,
-    "naming another kind": lambda ctx, p, kind: p.write_text("report/x@v1" if kind != "report" else "demos/ip@v1"),
+    "naming another kind": lambda ctx, p, kind: p.write_text("dataset/data@v1" if kind == "demos" else "demos/ip@v1"),
     "naming its artifact by path": lambda ctx, p, kind: p.write_text(str(ctx.store.resolve(LEDGERED[kind][0], kind).path)),
     "a folder": lambda ctx, p, kind: p.mkdir(),
     "a FIFO": lambda ctx, p, kind: os.mkfifo(p),
@@ -303,7 +303,7 @@ LEDGER_CASES = [Case("damaged run files", f"sweep ledger entry of a {kind} {how}
 def _forged_manifest(change: Callable[[dict], None]) -> Callable[[Context], str]:
     """A manifest whose hashes a forger recomputed around a missing or mistyped entry: `ls` lists it as DAMAGED,
     `show` refuses it in one line."""
-    listed = guarded(lambda ctx: _lists_damaged(ctx))
+    listed = guarded(_lists_damaged)
 
     def run(ctx: Context) -> str:
         path = ctx.store.resolve("ip", "demos").path / "manifest.json"
