@@ -335,7 +335,7 @@ def evaluate(
     policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
     episodes: int = typer.Option(cfg.EvalConfig.episodes, "--episodes", help="Deterministic evaluation episodes."),
     normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
-    demos: Optional[str] = typer.Option(None, "--demos", help="Demos whose return is the expert reference (default: the policy's own)."),
+    demos: Optional[str] = typer.Option(None, "--demos", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
     seed: int = typer.Option(cfg.EvalConfig.seed, "--seed", help="Seed of the first evaluation episode.", min=0),
     video: Optional[Path] = VIDEO,
 ) -> None:
