@@ -95,6 +95,8 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     assert curve[["reward_expert_mean", "reward_random_mean"]].notna().all().all()
     assert finished.config["critic"]["tanh"] is True  # inherited from the warm-up (default: tanh)
     assert cli("curve", "run", "--out", store.root / "done.png").output.startswith("policy/run@v1")
+    beside = cli("curve", "run", "policy/run@v1", "--out", store.root / "both.png")  # one panel per run
+    assert beside.exit_code == 0 and beside.output.count("policy/run@v1: ") == 2 and (store.root / "both.png").stat().st_size > 0
 
 
 def test_imitate_keeps_the_loss_form_the_critic_was_warmed_up_with(stages, cli):

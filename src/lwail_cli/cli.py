@@ -357,23 +357,30 @@ def _say_evaluation(result: dict) -> None:
 
 CURVE_COLUMNS = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
                  *(f"{name}_normalized_score" for name in cfg.POLICY_NETWORKS), "reward_expert_mean", "pseudo_reward_mean",
-                 "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman")
+                 "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman", "episodes_terminated")
 
 
 @command(app, "curve")
 def curve(
-    ref: str = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref."),
-    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder)."),
+    refs: list[str] = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
+    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder, refs joined by '+')."),
 ) -> None:
-    """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill."""
-    history, source = curve_stage.read_curve(store(), ref=ref)
-    typer.echo(source)
-    shown = history[[column for column in CURVE_COLUMNS if column in history]]
-    typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))
-    for line in curve_stage.summary_lines(history):
-        typer.echo(line)
-    path = out or Path(re.sub(r"[^A-Za-z0-9._-]", "_", ref) + "-curve.png")
-    typer.echo(f"wrote {curve_stage.plot_curve(history, path, ref)}")
+    """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill; with several
+    runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
+    histories = {}
+    for ref in refs:
+        history, source = curve_stage.read_curve(store(), ref=ref)
+        typer.echo(source)
+        shown = history[[column for column in CURVE_COLUMNS if column in history]]
+        typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))
+        for line in curve_stage.summary_lines(history):
+            typer.echo(line)
+        histories[ref] = history
+    path = out or Path(re.sub(r"[^A-Za-z0-9._+-]", "_", "+".join(refs)) + "-curve.png")
+    if len(histories) == 1:
+        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
+    else:
+        typer.echo(f"wrote {curve_stage.plot_curves(histories, path)}")
 
 
 @command(app, "quickstart")

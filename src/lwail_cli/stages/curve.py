@@ -9,7 +9,7 @@ import pandas as pd
 
 from ..config import POLICY_NETWORKS
 from ..errors import LwailError
-from .plots import plot_run, score_column
+from .plots import plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
     from ..artifacts import Store
@@ -47,6 +47,11 @@ def _read(path: Path) -> pd.DataFrame:
 
 def plot_curve(curve: pd.DataFrame, path: Path, title: str) -> Path:
     plot_run(curve, path, None, title)
+    return path
+
+
+def plot_curves(curves: dict[str, pd.DataFrame], path: Path) -> Path:
+    plot_side_by_side(curves, path)
     return path
 
 
