@@ -232,11 +232,11 @@ def test_resume_may_change_the_budget_and_schedule_but_not_what_trains(store):
 
     straight, extended = run("straight", 1600), run("extended", 1600, resume=True)
     assert straight.file("final_actor.safetensors").read_bytes() == extended.file("final_actor.safetensors").read_bytes()
-    assert pd.read_csv(extended.file("training.csv"))["step"].tolist() == [1200, 1600]
+    assert pd.read_csv(extended.file("learning_curve.csv"))["step"].tolist() == [1200, 1600]
 
     stopped = run("stopped", 500, resume=True)
     assert stopped.config["train"]["steps"] == 500 and stopped.metrics["env_steps"] == 500
-    assert pd.read_csv(stopped.file("training.csv"))["step"].tolist() == [500]  # evaluated where it stopped
+    assert pd.read_csv(stopped.file("learning_curve.csv"))["step"].tolist() == [500]  # evaluated where it stopped
 
 
 def test_icvf_pretraining_resumes_after_a_kill_bit_for_bit(store):

@@ -22,7 +22,7 @@ def test_an_online_run_logs_its_curve_rows_as_scalars(cli, store, tmp_path):
     assert result.exit_code == 0, result.output
     scalars, run = _scalars(tmp_path / "tb")
     assert run.startswith("expert_InvertedPendulum-v5-")
-    curve = pd.read_csv(store.resolve("p", "policy").file("training.csv"))
+    curve = pd.read_csv(store.resolve("p", "policy").file("learning_curve.csv"))
     logged = scalars["curve/return_mean"]
     assert [step for step, _ in logged] == curve["step"].tolist() == [200, 400]
     assert [value for _, value in logged] == pytest.approx(curve["return_mean"].tolist())

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from . import learning_curve as curve
 from .discriminator import transition_features
 from .evaluation import spearman
 
@@ -89,11 +90,11 @@ class AdversarialReward:
         reward = self.trainer.reward
         pseudo_returns = np.array([self._pseudo_return(episode.observations) for episode in evaluation.episodes])
         return {
-            "reward_expert_mean": float(reward(self.expert_features).mean()),
-            "pseudo_reward_mean": float(self.recent_reward),  # the latest update_every policy pairs, at the last update of f
-            "reward_random_mean": float(reward(self.random_features).mean()) if self.random_features is not None else float("nan"),
-            "wasserstein_estimate": float(self.trainer.last_wasserstein),
-            "pseudo_return_spearman": spearman(pseudo_returns, evaluation.returns),
+            curve.REWARD_EXPERT: float(reward(self.expert_features).mean()),
+            curve.PSEUDO_REWARD: float(self.recent_reward),  # the latest update_every policy pairs, at the last update of f
+            curve.REWARD_RANDOM: float(reward(self.random_features).mean()) if self.random_features is not None else float("nan"),
+            curve.WASSERSTEIN: float(self.trainer.last_wasserstein),
+            curve.PSEUDO_RETURN_SPEARMAN: spearman(pseudo_returns, evaluation.returns),
         }
 
     def _pseudo_return(self, observations: np.ndarray) -> float:

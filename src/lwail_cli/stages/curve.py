@@ -9,19 +9,19 @@ import pandas as pd
 
 from ..config import POLICY_NETWORKS
 from ..errors import LwailError
+from ..learning_curve import FILES
 from .plots import plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
-    from ..artifacts import Store
+    from ..artifacts import Artifact, Store
 
-CURVE_FILES = ("learning_curve.csv", "training.csv")  # imitate's, expert train's
 LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
 
 
 def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
     """The curve of the run named ``ref`` while it runs (or after a kill), else of the policy artifact ``ref``;
     with a line saying which was read."""
-    for filename in CURVE_FILES:
+    for filename in FILES:
         try:
             live = store.run_log("policy", ref, filename)
         except LwailError:  # not a plain name (e.g. name@v2 or a path): an artifact ref
@@ -29,9 +29,15 @@ def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
         if live.is_file():
             return _read(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
     policy = store.resolve(ref, "policy")
-    for filename in CURVE_FILES:
+    curve, path = policy_curve(policy)
+    return curve, f"{policy.ref}: {path}"
+
+
+def policy_curve(policy: Artifact) -> tuple[pd.DataFrame, Path]:
+    """The learning curve a policy artifact holds, and its file."""
+    for filename in FILES:
         if policy.file(filename).is_file():
-            return _read(policy.file(filename)), f"{policy.ref}: {policy.file(filename)}"
+            return _read(policy.file(filename)), policy.file(filename)
     raise LwailError(f"{policy.ref} holds no learning curve")
 
 

@@ -31,6 +31,6 @@ def train_expert(
 
     run = PolicyRun(
         env_id=env_id, name=name or default_name(env_id, "expert"), config=config, seed=seed, parents=[],
-        trained_on="true reward", reference=reference_for_env(env_id), reward_model=None, curve_file="training.csv", write=write,
+        trained_on="true reward", reference=reference_for_env(env_id), reward_model=None, write=write,
     )
     return train_policy(store, run, device=device, resume=resume, on_progress=on_progress)

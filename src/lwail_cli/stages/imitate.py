@@ -72,7 +72,7 @@ def imitate(
 
     run = PolicyRun(
         env_id=env_id, name=name or default_name(env_id, "lwail"), config=config, seed=seed, parents=[demos, embedding, disc],
-        trained_on="LWAIL pseudo-reward", reference=reference, reward_model=reward_model, curve_file="learning_curve.csv", write=write,
+        trained_on="LWAIL pseudo-reward", reference=reference, reward_model=reward_model, write=write,
         recorded={**cfg.to_dict(config), "critic": cfg.to_dict(critic)}, feature_width=disc.config["input_dim"],
     )
     return train_policy(store, run, device=device, resume=resume, on_progress=on_progress)

@@ -7,12 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..config import POLICY_NETWORKS
-
-REWARD_COLUMNS = {  # column -> legend
-    "reward_expert_mean": "σ(−f) on expert pairs",
-    "pseudo_reward_mean": "σ(−f) on the latest policy pairs",
-    "reward_random_mean": "σ(−f) on random-policy pairs",
-}
+from ..learning_curve import PSEUDO_REWARD, REWARDS
 
 
 def score_column(history: pd.DataFrame) -> str:
@@ -29,7 +24,7 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     import matplotlib.pyplot as plt
 
     score = score_column(history)
-    rewards = [column for column in REWARD_COLUMNS if column in history]
+    rewards = [column for column in REWARDS if column in history]
     fig, axes = plt.subplots(2 if rewards else 1, 1, figsize=(7, 6 if rewards else 4), sharex=True, squeeze=False)
     top = axes[0, 0]
     top.plot(history["step"], history[score], marker="o", markersize=3, label="kept policy")
@@ -43,7 +38,7 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     if rewards:
         bottom = axes[1, 0]
         for column in rewards:
-            bottom.plot(history["step"], history[column], label=REWARD_COLUMNS[column])
+            bottom.plot(history["step"], history[column], label=REWARDS[column])
         bottom.set(ylabel="reward", ylim=(0, 1))
         bottom.legend(fontsize=8)
         bottom.grid(alpha=0.3)
@@ -51,10 +46,10 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     fig.tight_layout()
     fig.savefig(curve_path, dpi=100)
     plt.close(fig)
-    if scatter_path is None or "pseudo_reward_mean" not in history:
+    if scatter_path is None or PSEUDO_REWARD not in history:
         return
     fig, ax = plt.subplots(figsize=(6, 4))
-    points = ax.scatter(history["pseudo_reward_mean"], history["return_mean"], c=history["step"], cmap="viridis")
+    points = ax.scatter(history[PSEUDO_REWARD], history["return_mean"], c=history["step"], cmap="viridis")
     fig.colorbar(points, label="environment steps")
     ax.set(xlabel="mean pseudo-reward σ(−f) of recent transitions", ylabel="true return", title="pseudo-reward vs true return")
     ax.grid(alpha=0.3)

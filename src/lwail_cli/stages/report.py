@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
-from .curve import curve_figures
+from .curve import curve_figures, policy_curve
 from .evaluate import normalized_evaluations
 from .plots import plot_bands
 
@@ -28,7 +28,7 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
             policy = store.resolve(plan.names(run)["policy"], "policy")
         except LwailError:
             continue  # not finished (yet): the report covers the runs that are
-        curve = pd.read_csv(policy.file("learning_curve.csv"))
+        curve, _ = policy_curve(policy)
         if "normalized_score" not in curve:
             raise LwailError(f"{policy.ref} has no normalized scores in its learning curve")
         steps = policy.metrics["env_steps"]

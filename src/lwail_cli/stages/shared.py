@@ -15,6 +15,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from .. import config as cfg
+from .. import learning_curve
 from ..data import Episode, load_local_minari, read_imitation, read_minari_directory, read_npz, transition_pairs, validate_episodes
 from ..discriminator import Critic, transition_features
 from ..envs import EnvInfo, describe_env
@@ -212,7 +213,6 @@ class PolicyRun:
     trained_on: str
     reference: Reference | None
     reward_model: Callable[[int], RewardModel] | None  # builds it for a buffer capacity (after seeding torch)
-    curve_file: str  # the learning curve's CSV: beside the checkpoint while running, then in the artifact
     write: Callable[[ArtifactWriter, RunState, TD3, RewardModel | None], None]  # the stage's own files and metrics
     recorded: dict | None = None  # the manifest's config, when more than ``config`` (default: ``config``)
     feature_width: int = 0  # floats the reward model caches per buffered transition (LWAIL's pair features)
@@ -232,7 +232,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
             raise LwailError(f"the checkpoint of policy/{run.name} is at step {reached}: --steps must be at least {reached}")
 
         def log_curve(history: list[dict]) -> None:
-            store.write_run_log("policy", run.name, run.curve_file, history)
+            store.write_run_log("policy", run.name, learning_curve.FILE, history)  # beside the checkpoint
 
         if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
             log_curve(checkpoints.resume["run"]["history"])
@@ -251,7 +251,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
         )
         extra = {"trained_on": run.trained_on}
         with store.create("policy", run.name, env=info, config=record, seed=run.seed, parents=run.parents, extra=extra) as writer:
-            write_history(writer.path(run.curve_file), result)
+            write_history(writer.path(learning_curve.FILE), result)
             run.write(writer, result, agent, reward_model)
             writer.metrics.update(final_metrics(result))
             if run.reference is not None:

@@ -1,0 +1,133 @@
+"""The commands that read results: eval, curve, the chain in one go (quickstart) or as a grid (sweep), a sweep's
+report, and export to another toolkit."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .. import config as cfg
+from .. import learning_curve
+from ..errors import LwailError
+from ..stages import curve as curve_stage
+from ..stages import evaluate as evaluate_stage
+from ..stages import export as export_stage
+from ..stages import quickstart as quickstart_stage
+from ..stages import report as report_stage
+from ..stages import sweep as sweep_stage
+from ..stages.shared import resolve_device
+from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store
+
+
+@command(app, "eval", config=cfg.EvalConfig)
+def evaluate(
+    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
+    normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
+    demos: Optional[str] = typer.Option(None, "--demos", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
+    video: Optional[Path] = VIDEO,
+    *,
+    config: cfg.EvalConfig,
+) -> None:
+    """Roll a policy out on the true reward; print mean ± std return (and the normalized score)."""
+    result = evaluate_stage.evaluate(store(), policy_ref=policy, config=config, normalized=normalized, demos_ref=demos, video_dir=video)
+    _say_evaluation(result)
+    for path in result["videos"]:
+        typer.echo(f"wrote {path}")
+
+
+def _say_evaluation(result: dict) -> None:
+    typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes")
+    if "normalized_score" in result:
+        typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
+    if result.get("not_logged"):
+        typer.echo(f"warning: not appended to evals.csv: {result['not_logged']}", err=True)
+
+
+@command(app, "curve")
+def curve(
+    refs: list[str] = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
+    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder, refs joined by '+')."),
+) -> None:
+    """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill; with several
+    runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
+    histories = {}
+    for ref in refs:
+        history, source = curve_stage.read_curve(store(), ref=ref)
+        typer.echo(source)
+        shown = history[[column for column in learning_curve.TABLE if column in history]]
+        typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))
+        for line in curve_stage.summary_lines(history):
+            typer.echo(line)
+        histories[ref] = history
+    path = out or Path(re.sub(r"[^A-Za-z0-9._+-]", "_", "+".join(refs)) + "-curve.png")
+    if len(histories) == 1:
+        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
+    else:
+        typer.echo(f"wrote {curve_stage.plot_curves(histories, path)}")
+
+
+@command(app, "quickstart")
+def quickstart(
+    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", help="A task with bundled demos."),
+    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    seed: int = SEED,
+    device: str = DEVICE,
+) -> None:
+    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
+    plan = quickstart_stage.quickstart_plan(env_id, steps)
+    s = store()
+    typer.echo(f"quickstart on {env_id} into store {s.root}")
+    result = quickstart_stage.quickstart(
+        s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
+    )
+    _say_evaluation(result)
+
+
+@command(app, "sweep")
+def sweep(
+    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
+) -> None:
+    """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
+    plan = sweep_stage.read_plan(plan_file)
+    s = store()
+    typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs into store {s.root.resolve()}")
+
+    def show(status: dict[str, str]) -> None:
+        width = max(map(len, status))
+        typer.echo("\n".join(f"  {label.ljust(width)}  {line}" for label, line in status.items()) + "\n")
+
+    failures = sweep_stage.run_sweep(s, plan=plan, address=address, on_status=show)
+    _say_report(report_stage.report(s, plan=plan))
+    if failures:
+        raise LwailError(f"{len(failures)} of {len(plan.runs)} runs failed ({'; '.join(failures)}); rerun the sweep to retry them")
+
+
+@command(app, "report")
+def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report.")) -> None:
+    """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
+    s = store()
+    if Path(sweep_ref).is_file():
+        plan = sweep_stage.read_plan(Path(sweep_ref))
+    else:
+        plan = sweep_stage.plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")
+    _say_report(report_stage.report(s, plan=plan))
+
+
+def _say_report(artifact) -> None:
+    say_written(artifact)
+    typer.echo(artifact.file("summary.md").read_text())
+
+
+@command(app, "export")
+def export(
+    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
+    out: Path = typer.Option(..., "--out", help="File to write (model.zip for --format sb3)."),
+    fmt: str = typer.Option("sb3", "--format", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
+) -> None:
+    """Write a policy for another toolkit: the actor as an SB3 TD3 model (its critic freshly initialised)."""
+    typer.echo(f"wrote {export_stage.export_policy(store(), policy_ref=policy, fmt=fmt, out=out)}")
+

@@ -1,0 +1,164 @@
+"""The commands of the chain's stages: collect, expert train and record, demos import, pretrain-icvf, warmup-disc,
+imitate. Each builds its config (``command(..., config=)``), runs its stage inside a progress bar and says what it wrote."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .. import config as cfg
+from ..errors import LwailError
+from ..stages import collect as collect_stage
+from ..stages import demos as demos_stage
+from ..stages import embed as embed_stage
+from ..stages import expert as expert_stage
+from ..stages import imitate as imitate_stage
+from ..stages import warmup as warmup_stage
+from ..stages.shared import resolve_device
+from .app import DEVICE, NAME, RESUME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, say_written, store
+
+
+# ------------------------------------------------------------------------------ data
+@command(app, "collect", config=cfg.CollectConfig)
+def collect(
+    env_id: str = typer.Argument(..., help="Gymnasium environment id, e.g. Hopper-v5."),
+    from_minari: Optional[str] = typer.Option(None, "--from-minari", help="Import a dataset from the local Minari store (never downloads)."),
+    from_file: Optional[Path] = typer.Option(None, "--from-file", help="Import a .npz with 'observations' and 'episode_ends'."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    *,
+    config: cfg.CollectConfig,
+) -> None:
+    """Collect state-only data from a uniformly random policy (or import it) as a Minari dataset."""
+    if from_minari and from_file:
+        raise LwailError("give one source: --from-minari or --from-file (neither: collect from a random policy)")
+    if from_minari or from_file:
+        artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
+    else:
+        with progress_bar(f"collect {env_id}", config.transitions) as report:
+            artifact = collect_stage.collect(store(), env_id=env_id, config=config, seed=seed, name=name, on_progress=report)
+    say_written(artifact)
+
+
+# ------------------------------------------------------------------------------ experts & demos
+@command(expert_app, "train", config=cfg.ExpertConfig)
+def expert_train(
+    env_id: str = typer.Argument(..., help="Gymnasium environment id with a continuous action space."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    resume: bool = RESUME,
+    *,
+    config: cfg.ExpertConfig,
+) -> None:
+    """Train a TD3 expert on the environment's true reward (the paper's TD3 baseline)."""
+    with progress_bar(f"expert {env_id}", config.train.steps) as report:
+        artifact = expert_stage.train_expert(
+            store(), env_id=env_id, config=config, seed=seed, name=name, device=resolve_device(device), resume=resume, on_progress=report
+        )
+    say_written(artifact)
+
+
+@command(expert_app, "record", config=cfg.RecordConfig)
+def expert_record(
+    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    video: Optional[Path] = VIDEO,
+    *,
+    config: cfg.RecordConfig,
+) -> None:
+    """Roll a policy out and record state-only demonstrations with each episode's return."""
+    say_written(demos_stage.record_demos(store(), policy_ref=policy, config=config, seed=seed, name=name, video_dir=video))
+
+
+@command(demos_app, "import", config=cfg.RecordConfig)
+def demos_import(
+    env_id: str = typer.Argument(..., help="Environment the demonstrations come from."),
+    from_minari: Optional[str] = typer.Option(None, "--from-minari", help="A dataset id in the local Minari store."),
+    from_file: Optional[Path] = typer.Option(None, "--from-file", help="A .npz with 'observations', 'episode_ends' (and optional 'returns')."),
+    bundled: bool = typer.Option(False, "--bundled", help="The demos shipped with lwail for this env."),
+    from_imitation: Optional[Path] = typer.Option(
+        None, "--from-imitation", help="Trajectories saved by the imitation library (imitation.data.serialize.save: a folder, or its older .npz)."),
+    from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    *,
+    config: cfg.RecordConfig,
+) -> None:
+    """Import state-only demonstrations: a local Minari dataset, a .npz, imitation's trajectories, an SB3 model's
+    rollouts (--episodes of them), or the bundled set."""
+    if sum(map(bool, (bundled, from_sb3, from_minari, from_file, from_imitation))) > 1:
+        raise LwailError("give one source: --bundled, --from-sb3, --from-minari, --from-file or --from-imitation")
+    if bundled:
+        say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
+    elif from_sb3 is not None:
+        say_written(demos_stage.import_sb3_demos(store(), env_id=env_id, model=from_sb3, config=config, seed=seed, name=name))
+    else:
+        say_written(demos_stage.import_demos(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file, imitation=from_imitation))
+
+
+# ------------------------------------------------------------------------------ LWAIL stages
+@command(app, "pretrain-icvf", config=cfg.EmbedConfig)
+def pretrain_icvf(
+    data: str = typer.Argument(..., help="Dataset artifact (from `lwail collect`)."),
+    demos: Optional[str] = typer.Option(None, "--demos", help="Expert demos: also probe expert-vs-random separation and progress in φ (recommended)."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    resume: bool = typer.Option(False, "--resume", help="Continue the killed pre-training of the same name from its last checkpoint."),
+    *,
+    config: cfg.EmbedConfig,
+) -> None:
+    """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
+    total = config.icvf.steps if config.kind == "icvf" else 0
+    with progress_bar("pretrain-icvf", total) as report:
+        artifact = embed_stage.embed(
+            store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report,
+            resume=resume,
+        )
+    say_written(artifact)
+
+
+@command(app, "warmup-disc", config=cfg.WarmupConfig)
+def warmup_disc(
+    embedding: str = typer.Argument(..., help="Embedding artifact (from `lwail pretrain-icvf`)."),
+    demos: str = typer.Argument(..., help="Demos artifact."),
+    data: Optional[str] = typer.Option(None, "--data", help="Random-policy dataset (default: the one the embedding was trained on)."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    *,
+    config: cfg.WarmupConfig,
+) -> None:
+    """Warm the discriminator f up: expert pairs vs the random policy's true (s, s') pairs."""
+    with progress_bar("warmup-disc", config.steps) as report:
+        artifact = warmup_stage.warmup(
+            store(), embedding_ref=embedding, demos_ref=demos, config=config, seed=seed, name=name,
+            device=resolve_device(device), data_ref=data, on_progress=report,
+        )
+    say_written(artifact)
+
+
+@command(app, "imitate", config=cfg.ImitationConfig)
+def imitate(
+    env_id: str = typer.Argument(..., help="Environment to imitate in."),
+    demos: str = typer.Option(..., "--demos", help="Demos artifact."),
+    embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
+    disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact (f keeps the loss it was warmed up with)."),
+    seed: int = SEED,
+    name: Optional[str] = NAME,
+    device: str = DEVICE,
+    resume: bool = RESUME,
+    *,
+    config: cfg.ImitationConfig,
+) -> None:
+    """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
+    with progress_bar(f"imitate {env_id}", config.train.steps) as report:
+        artifact = imitate_stage.imitate(
+            store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,
+            name=name, device=resolve_device(device), resume=resume, on_progress=report,
+        )
+    say_written(artifact)

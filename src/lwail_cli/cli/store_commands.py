@@ -1,0 +1,61 @@
+"""The commands that look into the store and the settings: ls, show, verify, defaults."""
+
+from __future__ import annotations
+
+import json
+from typing import Optional
+
+import typer
+
+from .. import config as cfg
+from ..errors import LwailError
+from .app import app, command, fmt, store
+
+
+@command(app, "ls")
+def list_artifacts() -> None:
+    """List artifacts: kind, name, versions, env, created, key metric."""
+    rows = store().list()
+    if not rows:
+        typer.echo(f"no artifacts in {store().root}")
+        return
+    header = ("KIND", "NAME", "VERSIONS", "ENV", "CREATED", "KEY METRIC")
+    table = [header]
+    for kind, name, versions, manifest in rows:
+        if manifest is None:
+            table.append((kind, name, ",".join(f"v{v}" for v in versions), "DAMAGED", "", "run `lwail verify` for details"))
+            continue
+        metrics = manifest.get("metrics", {})
+        key = next((k for k in ("normalized_score", "return_mean", "mean_return", "probe_spearman", "transitions") if k in metrics), None)
+        table.append((kind, name, ",".join(f"v{v}" for v in versions), (manifest["env"] or {"id": "-"})["id"], manifest["created"][:19], f"{key}={fmt(metrics[key])}" if key else ""))
+    widths = [max(len(row[i]) for row in table) for i in range(len(header))]
+    for row in table:
+        typer.echo("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
+
+
+@command(app, "show")
+def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.")) -> None:
+    """Print one artifact's manifest."""
+    typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
+
+
+@command(app, "verify")
+def verify(ref: Optional[str] = typer.Argument(None, help="kind/name[@vN] or a path (default: every artifact in the store).")) -> None:
+    """Re-hash every file and manifest of one artifact, or of the whole store; exit 1 if anything is damaged."""
+    results = store().verify(ref)
+    for path, problem in results:
+        typer.echo(f"ok       {path}" if problem is None else f"DAMAGED  {path}: {problem}")
+    damaged = sum(problem is not None for _, problem in results)
+    typer.echo(f"{len(results)} artifact versions checked, {damaged} damaged")
+    if damaged:
+        raise typer.Exit(1)
+
+
+@command(app, "defaults")
+def defaults(stage: Optional[str] = typer.Argument(None, help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
+    """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
+    if stage is not None and stage not in cfg.STAGES:
+        raise LwailError(f"unknown stage {stage!r}; one of {', '.join(cfg.STAGES)}")
+    for name, config_type in cfg.STAGES.items():
+        if stage in (None, name):
+            typer.echo(f"# {name}\n{cfg.describe(config_type())}")

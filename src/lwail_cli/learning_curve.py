@@ -1,0 +1,27 @@
+"""The learning curve of an online TD3 run (`expert train`, `imitate`): one CSV row per evaluation.
+
+Its file name and its columns, for the code that writes it (the run skeleton, imitation's diagnostics) and the
+code that reads it (`lwail curve`, the sweep report, the plots)."""
+
+from __future__ import annotations
+
+from .config import POLICY_NETWORKS
+
+FILE = "learning_curve.csv"
+# the names to look for, newest first: up to 9b43183 `expert train` wrote training.csv, read only as a fallback
+# so that its policy artifacts and its runs in flight (killed, or resumed by this code) still show their curves
+FILES = (FILE, "training.csv")
+
+# what the critic f says at each evaluation of an LWAIL run (imitation.AdversarialReward.metrics)
+REWARD_EXPERT, PSEUDO_REWARD, REWARD_RANDOM = "reward_expert_mean", "pseudo_reward_mean", "reward_random_mean"
+REWARDS = {  # column -> legend
+    REWARD_EXPERT: "σ(−f) on expert pairs",
+    PSEUDO_REWARD: "σ(−f) on the latest policy pairs",
+    REWARD_RANDOM: "σ(−f) on random-policy pairs",
+}
+WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spearman"
+
+# the columns `lwail curve` prints, in this order, where a curve has them (the rest stay in the file)
+TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
+         *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
+         "episodes_terminated")
