@@ -3,7 +3,7 @@ import os
 
 import pytest
 
-from lwail_cli.artifacts import SCHEMA_VERSION
+from lwail_cli.manifests import SCHEMA_VERSION
 from lwail_cli.envs import describe_env
 from lwail_cli.errors import LwailError
 
@@ -69,12 +69,12 @@ def test_validation_refuses_tampering_wrong_kind_schema_and_missing(store):
 
 
 def test_corrupt_checkpoint_is_refused_clearly(store):
-    store.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
-    assert store.load_checkpoint("policy", "run") == {"step": 5, "record": {"seed": 0}}
+    store.runs.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
+    assert store.runs.load_checkpoint("policy", "run") == {"step": 5, "record": {"seed": 0}}
     path = store.root / ".runs" / "policy" / "run" / "checkpoint.pt"
     path.write_bytes(b"garbage" * 10)
     with pytest.raises(LwailError, match="corrupt"):
-        store.load_checkpoint("policy", "run")
+        store.runs.load_checkpoint("policy", "run")
 
 
 def test_a_store_that_refuses_writes_is_a_clear_error_not_a_hang(store, monkeypatch):

@@ -32,8 +32,9 @@ import torch
 
 from conftest import write_states_npz
 from lwail_cli import config as cfg
-from lwail_cli.artifacts import Store, _content_hash, _manifest_hash
+from lwail_cli.artifacts import Store
 from lwail_cli.errors import LwailError
+from lwail_cli.manifests import content_hash, manifest_hash
 from lwail_cli.stages import collect, demos, embed, expert, imitate, warmup
 
 ENV = "InvertedPendulum-v5"
@@ -310,8 +311,8 @@ def _forged_manifest(change: Callable[[dict], None]) -> Callable[[Context], str]
         manifest = json.loads(path.read_text())
         change(manifest)
         if isinstance(manifest.get("files"), dict):
-            manifest["hash"] = _content_hash(manifest["files"], manifest.get("env"), manifest.get("config"))
-        manifest["manifest_hash"] = _manifest_hash(manifest)
+            manifest["hash"] = content_hash(manifest["files"], manifest.get("env"), manifest.get("config"))
+        manifest["manifest_hash"] = manifest_hash(manifest)
         path.write_text(json.dumps(manifest))
         outcome = listed(ctx)
         return outcome if outcome != "clean" else refused(lambda ctx: ("show", "demos/ip"), "damaged")(ctx)

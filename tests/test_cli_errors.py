@@ -103,7 +103,7 @@ def test_mismatched_stage_artifacts_are_refused(cli, store, seeded, tmp_path):
     assert_refused(cli("imitate", "Hopper-v5", *stages), store, before, "was made for InvertedPendulum-v5, not Hopper-v5")
     mixed = ("--demos", "ip", "--embedding", "icvf", "--disc", "disc", "--steps", "50")
     assert_refused(cli("imitate", "InvertedPendulum-v5", *mixed), store, before, "was warmed up on embedding/ident@v1 (identity)")
-    store.save_checkpoint("policy", "run", {"step": 1})
+    store.runs.save_checkpoint("policy", "run", {"step": 1})
     (store.root / ".runs" / "policy" / "run" / "checkpoint.pt").write_bytes(b"\x00garbage")
     assert_refused(cli("imitate", "InvertedPendulum-v5", *stages, "--name", "run", "--resume"), store, before, "is corrupt")
 

@@ -82,7 +82,7 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     header = next(row for row in lines if row and row[0] == "step")
     for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman", "actor_normalized_score"):
         assert column in header
-    live = pd.read_csv(store.run_log("policy", "run", "learning_curve.csv"))
+    live = pd.read_csv(store.runs.run_log("policy", "run", "learning_curve.csv"))
     kept, other = live.loc[live["step"] == 1000, ["normalized_score", "actor_normalized_score"]].iloc[0]
     # over the 1000 steps so far, the second half holds only the evaluation at 1000: last = lowest after half
     assert f"kept network, normalized_score over 1000 steps: last {kept:.1f} · best {live['normalized_score'].max():.1f}" in result.output
@@ -139,7 +139,7 @@ def test_imitate_writes_the_target_actor_by_default(stages):
 
     with pytest.raises(Killed):
         imitate.imitate(store, config=config(1000), on_progress=kill, **run)
-    agent = store.load_checkpoint("policy", "run")["agent"]
+    agent = store.runs.load_checkpoint("policy", "run")["agent"]
     finished = imitate.imitate(store, config=config(500), resume=True, **run)
     from safetensors.torch import load_file
 

@@ -49,13 +49,13 @@ def test_random_sigkills_then_resume_give_the_unkilled_result(tmp_path, stage):
     rng = np.random.default_rng(0)
     kills = 0
     for delay in rng.uniform(2.5, 6.0, size=4):
-        process = subprocess.Popen(_run(root, args, "killed", store.has_checkpoint(kind, "killed")), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        process = subprocess.Popen(_run(root, args, "killed", store.runs.has_checkpoint(kind, "killed")), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         time.sleep(delay)
         if process.poll() is None:
             process.send_signal(signal.SIGKILL)
             kills += 1
         process.wait()
-    finish = subprocess.run(_run(root, args, "killed", store.has_checkpoint(kind, "killed")), capture_output=True, text=True)
+    finish = subprocess.run(_run(root, args, "killed", store.runs.has_checkpoint(kind, "killed")), capture_output=True, text=True)
     assert finish.returncode == 0, finish.stderr
     assert kills >= 2  # the test must have killed something
     straight, killed = store.resolve("straight", kind), store.resolve("killed", kind)

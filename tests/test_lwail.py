@@ -120,7 +120,7 @@ def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
 
     with pytest.raises(Killed):
         expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, on_progress=kill_after_checkpoint)
-    assert store.load_checkpoint("policy", "killed")["run"]["step"] == 500
+    assert store.runs.load_checkpoint("policy", "killed")["run"]["step"] == 500
     resumed = expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, resume=True)
     a = load_policy(straight).state_dict()
     b = load_policy(resumed).state_dict()
@@ -251,13 +251,13 @@ def test_icvf_pretraining_resumes_after_a_kill_bit_for_bit(store):
 
     with pytest.raises(Killed):
         embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, on_progress=kill)
-    assert store.load_checkpoint("embedding", "killed")["step"] == 40
+    assert store.runs.load_checkpoint("embedding", "killed")["step"] == 40
     with pytest.raises(LwailError, match="made with another seed"):
         embed.embed(store, data_ref=data.ref, config=config, seed=1, name="killed", device=device, resume=True)
     resumed = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, resume=True)
     assert straight.file("phi.safetensors").read_bytes() == resumed.file("phi.safetensors").read_bytes()
     assert straight.file("loss.csv").read_text().count("\n") == resumed.file("loss.csv").read_text().count("\n") == 7
-    assert not store.has_checkpoint("embedding", "killed")
+    assert not store.runs.has_checkpoint("embedding", "killed")
 
 
 def test_a_killed_run_is_neither_overwritten_nor_run_twice(store):
@@ -364,6 +364,6 @@ def test_a_replay_buffer_that_cannot_fit_is_refused_before_anything_runs(cli, st
     result = cli("expert", "train", "Hopper-v5", "--steps", "10000000", "--set", "td3.buffer_size=10000000", "--name", "huge")
     assert result.exit_code == 1, result.output
     assert "a replay buffer of 10000000 transitions needs 1.0 GiB of memory, 0.5 GiB is available" in result.output
-    assert committed_versions(store) == [] and not store.has_checkpoint("policy", "huge")
+    assert committed_versions(store) == [] and not store.runs.has_checkpoint("policy", "huge")
     result = cli("collect", "Hopper-v5", "--transitions", "10000000")
     assert result.exit_code == 1 and "collecting 10000000 transitions needs" in result.output and committed_versions(store) == []

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from conftest import committed_versions, write_states_npz
-from lwail_cli.artifacts import _content_hash, _manifest_hash
+from lwail_cli.manifests import content_hash, manifest_hash
 from lwail_cli.errors import LwailError
 
 
@@ -48,8 +48,8 @@ def test_manifest_paths_and_module_env_ids_are_refused(cli, store, tmp_path):
     def forge(m):  # a careful forger recomputes both hashes
         m["files"].pop("../../../../etc/hostname")
         m["env"]["id"] = "os:system"
-        m["hash"] = _content_hash(m["files"], m["env"], m["config"])
-        m["manifest_hash"] = _manifest_hash(m)
+        m["hash"] = content_hash(m["files"], m["env"], m["config"])
+        m["manifest_hash"] = manifest_hash(m)
 
     _tamper(artifact, forge)
     with pytest.raises(LwailError, match="names a module to import"):
@@ -87,7 +87,7 @@ def test_a_parent_changed_after_its_child_was_made_is_refused(cli, store, tmp_pa
 
     def rename(m):  # the edit is re-hashed, so only the child's record of its parent can tell
         m["metrics"]["episodes"] = 99
-        m["manifest_hash"] = _manifest_hash(m)
+        m["manifest_hash"] = manifest_hash(m)
 
     _tamper(data, rename)
     result = cli("warmup-disc", "ident", "d", "--set", "steps=2")

@@ -94,7 +94,7 @@ ROWS = [{"step": 500, "wall_time": 1.0, "return_mean": 10.0, "return_std": 1.0, 
 
 def test_a_curve_written_under_the_old_name_is_still_read(cli, store):
     """`expert train` up to 9b43183 named its curve training.csv, in the run folder and in the policy artifact."""
-    store.write_run_log("policy", "killed", "training.csv", ROWS)
+    store.runs.write_run_log("policy", "killed", "training.csv", ROWS)
     killed = cli("curve", "killed", "--out", store.root / "killed.png")
     assert killed.exit_code == 0, killed.output
     assert "training.csv" in killed.output and "kept network, return_mean over 1000 steps: last 20.0" in killed.output

@@ -138,7 +138,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "plain-phi": 0.9}
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
-    store.set_sweep_status(plan.name, plan.names(plan.runs[1])["policy"], "imitating")  # as a run that imitates says
+    store.runs.set_sweep_status(plan.name, plan.names(plan.runs[1])["policy"], "imitating")  # as a run that imitates says
     assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600, normalized score ")
 
     # a restart takes every finished stage from the ledger, the closing evaluation included

@@ -15,8 +15,9 @@ import typer
 from tqdm import tqdm
 
 from .. import __version__
-from ..artifacts import Store, check_name
+from ..artifacts import Store
 from ..errors import LwailError
+from ..names import check_name
 from . import shorthands
 
 app = typer.Typer(

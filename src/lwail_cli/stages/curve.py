@@ -23,7 +23,7 @@ def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
     with a line saying which was read."""
     for filename in FILES:
         try:
-            live = store.run_log("policy", ref, filename)
+            live = store.runs.run_log("policy", ref, filename)
         except LwailError:  # not a plain name (e.g. name@v2 or a path): an artifact ref
             break
         if live.is_file():

@@ -48,7 +48,7 @@ def embed(
             writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe} | critic_probe(lambda x: x, "") | raw)
         return writer.artifact
     record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
-    with store.claim_run("embedding", name, resume=resume):
+    with store.runs.claim_run("embedding", name, resume=resume):
         checkpoints = prepare_run(store, "embedding", name, resume,
                                   {"config": record, "seed": seed, "env": info.id, "parents": [p.hash for p in parents]})
         result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
@@ -60,5 +60,5 @@ def embed(
             result.log.to_csv(writer.path("loss.csv"), index=False)
             writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
             writer.metrics.update(critic_probe(result.encoder, "") | raw)
-        store.clear_checkpoint("embedding", name)
+        store.runs.clear_checkpoint("embedding", name)
     return writer.artifact

@@ -181,7 +181,7 @@ def prepare_run(store: Store, kind: str, name: str, resume: bool, record: dict) 
     """Checkpoints carry what made the run (config, seed, env, parents); a resume under anything else is refused.
     A resume may change an online run's budget (``train.steps``, see ``train_policy``) and its evaluation and
     checkpoint schedule (``cfg.RESUME_MAY_CHANGE``): e.g. evaluate every 1k steps to look closely at part of a run."""
-    state = store.load_checkpoint(kind, name) if resume else None
+    state = store.runs.load_checkpoint(kind, name) if resume else None
     if state is not None:
         recorded = state.get("record", {})
         changed = [key for key in record if _what_trains(recorded.get(key)) != _what_trains(record[key])]
@@ -191,7 +191,7 @@ def prepare_run(store: Store, kind: str, name: str, resume: bool, record: dict) 
                 f"rerun with the same options (only {', '.join('train.' + key for key in cfg.RESUME_MAY_CHANGE)} may differ), "
                 "or without --resume"
             )
-    return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.save_checkpoint(kind, name, {**checkpoint, "record": record}))
+    return TrainingRun(resume=state, on_checkpoint=lambda checkpoint: store.runs.save_checkpoint(kind, name, {**checkpoint, "record": record}))
 
 
 def _what_trains(value):
@@ -222,7 +222,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
     """Seed, build, train (resumably) and write a policy artifact: the skeleton of `expert train` and `imitate`."""
     info = describe_env(run.env_id)
     record = cfg.to_dict(run.config) if run.recorded is None else run.recorded
-    with store.claim_run("policy", run.name, resume=resume):
+    with store.runs.claim_run("policy", run.name, resume=resume):
         checkpoints = prepare_run(store, "policy", run.name, resume, {
             "config": record, "seed": run.seed, "env": run.env_id, "parents": [p.hash for p in run.parents]
         })
@@ -232,7 +232,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
             raise LwailError(f"the checkpoint of policy/{run.name} is at step {reached}: --steps must be at least {reached}")
 
         def log_curve(history: list[dict]) -> None:
-            store.write_run_log("policy", run.name, learning_curve.FILE, history)  # beside the checkpoint
+            store.runs.write_run_log("policy", run.name, learning_curve.FILE, history)  # beside the checkpoint
 
         if checkpoints.resume is not None:  # drop rows a killed run logged after its last checkpoint
             log_curve(checkpoints.resume["run"]["history"])
@@ -256,7 +256,7 @@ def train_policy(store: Store, run: PolicyRun, *, device: torch.device, resume: 
             writer.metrics.update(final_metrics(result))
             if run.reference is not None:
                 writer.metrics["reference"] = run.reference.source
-        store.clear_checkpoint("policy", run.name)
+        store.runs.clear_checkpoint("policy", run.name)
     return writer.artifact
 
 

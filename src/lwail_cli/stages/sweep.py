@@ -21,8 +21,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 from .. import config as cfg
-from ..artifacts import Store, check_name
+from ..artifacts import Store
 from ..errors import LwailError
+from ..names import check_name
 from .collect import collect
 from .curve import read_curve
 from .demos import bundled_demos_path, import_bundled_demos
@@ -169,11 +170,11 @@ def _unique_list(value, kind: type) -> bool:
 def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact]) -> Artifact:
     """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents."""
     key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
-    done = store.finished_stage(plan.name, key, kind, name)
+    done = store.runs.finished_stage(plan.name, key, kind, name)
     if done is not None:
         return done
     artifact = make()
-    store.record_finished_stage(plan.name, key, artifact)
+    store.runs.record_finished_stage(plan.name, key, artifact)
     return artifact
 
 
@@ -188,11 +189,11 @@ def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
     name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["data"], plan.config("collect")
     waiting = [plan.names(SweepRun(task, seed, kind))["policy"] for kind in plan.kinds]  # the runs that need this data
     for run_name in waiting:
-        store.set_sweep_status(plan.name, run_name, "collecting data set I")
+        store.runs.set_sweep_status(plan.name, run_name, "collecting data set I")
     data = _once(store, plan, "dataset", name, {"config": cfg.to_dict(config), "seed": seed, "task": task},
                  lambda: collect(store, env_id=task, config=config, seed=seed, name=name))
     for run_name in waiting:  # queued again, until a CPU is free for the run itself
-        store.clear_sweep_status(plan.name, run_name)
+        store.runs.clear_sweep_status(plan.name, run_name)
     return data.ref
 
 
@@ -203,7 +204,7 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     store, plan = _worker(root, plan_dict)
     run, device = SweepRun(task, seed, kind), torch.device("cpu")
     names = plan.names(run)
-    status = functools.partial(store.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
+    status = functools.partial(store.runs.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
     demos, data = store.resolve(demos_ref, "demos"), store.resolve(data_ref, "dataset")
     status("pre-training φ")
     embed_config = plan.config("pretrain-icvf", kind)
@@ -217,12 +218,12 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     imitation_config = plan.config("imitate", kind)
     policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
                    lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
-                                   seed=seed, name=names["policy"], device=device, resume=store.has_checkpoint("policy", names["policy"])))
+                                   seed=seed, name=names["policy"], device=device, resume=store.runs.has_checkpoint("policy", names["policy"])))
     status("evaluating")
     eval_config = plan.config("eval", kind)  # a restart does not evaluate a finished run again
     result = (logged_normalized_evaluation(store, policy_ref=policy.ref, config=eval_config)
               or evaluate(store, policy_ref=policy.ref, config=eval_config, normalized=True))
-    store.clear_sweep_status(plan.name, names["policy"])  # done: the driver says so from Ray
+    store.runs.clear_sweep_status(plan.name, names["policy"])  # done: the driver says so from Ray
     return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
 
 
@@ -253,7 +254,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         raise LwailError(f"the plan gives each run {plan.threads} threads; this machine has {cores} cores")
     demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
     for run in plan.runs:  # what a killed sweep's runs last said is not what they do now
-        store.clear_sweep_status(plan.name, plan.names(run)["policy"])
+        store.runs.clear_sweep_status(plan.name, plan.names(run)["policy"])
     ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
@@ -286,7 +287,7 @@ def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
     """What a run does now, as its Ray task last said (None before it starts: queued); while it imitates, with the
     step and latest normalized score of its curve."""
     name = plan.names(run)["policy"]
-    line = store.sweep_status(plan.name, name)
+    line = store.runs.sweep_status(plan.name, name)
     if line != IMITATING:
         return line
     try:
