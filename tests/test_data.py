@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 from lwail_cli.config import CollectConfig
-from lwail_cli.data import flatten, read_npz, transition_pairs, write_npz
+from lwail_cli.data import flatten, transition_pairs
 from lwail_cli.envs import make_env
 from lwail_cli.errors import LwailError
+from lwail_cli.formats.npz import read_npz, write_npz
 from lwail_cli.rollout import rollout
 from lwail_cli.stages.collect import collect
 from lwail_cli.stages.shared import load_dataset

@@ -9,7 +9,7 @@ import torch
 
 from lwail_cli.envs import describe_env
 from lwail_cli.errors import LwailError
-from lwail_cli.sb3 import read_sb3_policy
+from lwail_cli.formats.sb3_zip import read_sb3_policy
 
 sb3 = pytest.importorskip("stable_baselines3")
 ENV = "InvertedPendulum-v5"

@@ -14,8 +14,8 @@ import numpy as np
 import torch
 
 from .artifacts import Store
-from .data import episode_arrays
 from .discriminator import transition_features
+from .formats.npz import episode_arrays
 from .stages.shared import load_critic, load_dataset, load_demos, load_encoder, parent, policy_fn
 from .stages.shared import load_policy as load_actor
 

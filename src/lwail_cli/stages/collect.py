@@ -8,8 +8,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import CollectConfig
-from ..data import Episode, npz_load_bytes, write_minari
+from ..data import Episode
 from ..envs import describe_env, make_env
+from ..formats.minari_hdf5 import write_minari
+from ..formats.npz import npz_load_bytes
 from ..rollout import rollout
 from ..seeds import stream_seeds
 from .shared import Progress, default_name, read_external, require_memory

@@ -9,11 +9,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import RecordConfig
-from ..data import Episode, npz_load_bytes, validate_episodes, write_npz
+from ..data import Episode, validate_episodes
 from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
+from ..formats.npz import npz_load_bytes, write_npz
+from ..formats.sb3_zip import read_sb3_policy
 from ..rollout import rollout
-from ..sb3 import read_sb3_policy
 from ..video import filmed_rollout
 from .shared import default_name, load_policy, policy_fn, read_external, require_memory
 

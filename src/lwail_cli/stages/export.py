@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..errors import LwailError
-from ..sb3 import write_sb3_td3
+from ..formats.sb3_zip import write_sb3_td3
 from .shared import load_policy
 
 if TYPE_CHECKING:

@@ -16,11 +16,14 @@ from safetensors.torch import load_file, save_file
 
 from .. import config as cfg
 from .. import learning_curve
-from ..data import Episode, load_local_minari, read_imitation, read_minari_directory, read_npz, transition_pairs, validate_episodes
+from ..data import Episode, transition_pairs, validate_episodes
 from ..discriminator import Critic, transition_features
 from ..envs import EnvInfo, describe_env
 from ..errors import LwailError
 from ..evaluation import Reference, d4rl_reference, random_policy_return
+from ..formats.imitation_trajectories import read_imitation
+from ..formats.minari_hdf5 import load_local_minari, read_minari_directory
+from ..formats.npz import read_npz
 from ..icvf import Encoder
 from ..replay import ReplayBuffer
 from ..td3 import TD3, Actor

@@ -21,8 +21,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from .envs import EnvInfo
-from .errors import LwailError
+from ..envs import EnvInfo
+from ..errors import LwailError
 
 ACTIVATIONS = {"ReLU": nn.ReLU, "Tanh": nn.Tanh, "ELU": nn.ELU, "LeakyReLU": nn.LeakyReLU, "SiLU": nn.SiLU, "GELU": nn.GELU}
 # (policy module, actor weight prefix, head prefix, default activation, how the head's output becomes an action)
