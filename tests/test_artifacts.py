@@ -3,9 +3,9 @@ import os
 
 import pytest
 
-from lwail_cli.manifests import SCHEMA_VERSION
 from lwail_cli.envs import describe_env
 from lwail_cli.errors import LwailError
+from lwail_cli.manifests import SCHEMA_VERSION
 
 ENV = describe_env("InvertedPendulum-v5")
 
@@ -75,6 +75,33 @@ def test_corrupt_checkpoint_is_refused_clearly(store):
     path.write_bytes(b"garbage" * 10)
     with pytest.raises(LwailError, match="corrupt"):
         store.runs.load_checkpoint("policy", "run")
+
+
+def test_the_run_area_keeps_the_layout_that_runs_in_flight_wrote(store):
+    """Checkpoints, run logs and a sweep's ledger sit where earlier versions of lwail put them, so a run killed (or
+    still training) under an earlier version resumes under this one."""
+    artifact = write(store)
+    store.runs.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
+    store.runs.write_run_log("policy", "run", "learning_curve.csv", [{"step": 1, "return": 2.5}, {"step": 2, "score": 1}])
+    store.runs.record_finished_stage("sw", "0123abcd", artifact)
+    store.runs.set_sweep_status("sw", "run", "imitating")
+    runs = store.root / ".runs"
+    assert sorted(str(path.relative_to(runs)) for path in runs.rglob("*") if path.is_file()) == [
+        "policy/run/checkpoint.pt", "policy/run/learning_curve.csv", "sweep/sw/0123abcd.ref", "sweep/sw/run.status"]
+    assert (runs / "policy/run/learning_curve.csv").read_bytes() == b"step,return,score\r\n1,2.5,\r\n2,,1\r\n"
+    assert (runs / "sweep/sw/0123abcd.ref").read_text() == "embedding/demo@v1"
+    assert store.runs.finished_stage("sw", "0123abcd", "embedding", "demo") == artifact
+    assert store.runs.sweep_status("sw", "run") == "imitating"
+
+
+def test_a_run_file_is_replaced_whole_or_not_at_all(store):
+    store.runs.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
+    with pytest.raises(Exception):  # pickling fails halfway through writing the new checkpoint
+        store.runs.save_checkpoint("policy", "run", {"step": 6, "record": {"seed": 0}, "unsaveable": lambda: None})
+    assert store.runs.load_checkpoint("policy", "run")["step"] == 5
+    store.runs.run_log("policy", "run", "learning_curve.csv").mkdir()  # damage: a folder where the log goes
+    store.runs.write_run_log("policy", "run", "learning_curve.csv", [{"step": 1}])
+    assert store.runs.run_log("policy", "run", "learning_curve.csv").read_bytes() == b"step\r\n1\r\n"
 
 
 def test_a_store_that_refuses_writes_is_a_clear_error_not_a_hang(store, monkeypatch):
