@@ -239,8 +239,7 @@ class Store:
         file_hashes = {}
         for target in sorted(writer.directory.rglob("*")):
             if target.is_file():
-                with open(target, "rb+") as handle:
-                    os.fsync(handle.fileno())
+                _fsync(target)
                 file_hashes[str(target.relative_to(writer.directory))] = file_hash(target)
         manifest = {
             "kind": kind,
@@ -266,8 +265,7 @@ class Store:
             manifest["manifest_hash"] = manifest_hash(manifest)
             manifest_path = writer.directory / MANIFEST
             manifest_path.write_text(json.dumps(manifest, indent=2))
-            with open(manifest_path, "rb+") as handle:
-                os.fsync(handle.fileno())
+            _fsync(manifest_path)
             try:
                 os.rename(writer.directory, parent_dir / f"v{version}")
                 break
@@ -277,7 +275,7 @@ class Store:
                 version += 1  # a concurrent writer took this version number
         else:
             raise LwailError(f"gave up writing {kind}/{name}: {COMMIT_TRIES} version numbers were taken by other writers")
-        _fsync_dir(parent_dir)
+        _fsync(parent_dir)
         return parent_dir / f"v{version}"
 
 
@@ -290,7 +288,8 @@ def _remove_abandoned(tmp_root: Path) -> None:
             shutil.rmtree(folder, ignore_errors=True)
 
 
-def _fsync_dir(path: Path) -> None:
+def _fsync(path: Path) -> None:
+    """Wait until a file, or a folder's list of entries, is on disk."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)

@@ -71,7 +71,6 @@ def load_npz(path: Path, wanted: tuple[str, ...]) -> dict[str, np.ndarray]:
         raise LwailError(f"cannot read {path} as a .npz file ({type(exc).__name__}: {exc})") from None
 
 
-
 def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     """Episodes from a ``.npz``: ``observations`` (N, obs_dim) and ``episode_ends`` (N,) bool marking
     each episode's last observation; optional ``terminations`` (N,) bool on those last observations
@@ -102,8 +101,8 @@ def read_npz(path: Path) -> tuple[list[Episode], np.ndarray | None]:
     return episodes, returns
 
 
-
 def is_real(array: np.ndarray) -> bool:
+    """Integers or floats (not bools, complex numbers, strings or objects)."""
     return np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
 
 
