@@ -11,6 +11,7 @@ import torch
 from lwail_cli import config as cfg
 from lwail_cli.envs import describe_env
 from lwail_cli.evaluation import d4rl_reference
+from lwail_cli.formats.npz import read_npz
 from lwail_cli.stages import demos, expert
 from lwail_cli.stages.shared import load_demos
 
@@ -36,6 +37,23 @@ def test_bundled_demos_import_and_match_their_expert(store, env_id):
     reference = d4rl_reference(env_id)
     if reference is not None:
         assert expert["d4rl_normalized"] == pytest.approx(reference.normalize(expert["mean_return"]))
+
+
+# issue 22's targets for the 1M-step experts: a mean return near TD3's published 1M-step results, and every bundled
+# episode an expert's (a one-trajectory run imitates the first one): none ended by a fall, none below 80% of the mean
+TRAINING = pytest.mark.xfail(strict=True, reason="expert still training: issue 22")
+TARGETS = [pytest.param("Walker2d-v5", 4_000), pytest.param("Ant-v5", 3_500, marks=TRAINING),
+           pytest.param("HalfCheetah-v5", 9_000, marks=TRAINING)]
+
+
+@pytest.mark.parametrize(("env_id", "target"), TARGETS)
+def test_the_bundled_1m_step_experts_meet_their_targets(env_id, target):
+    episodes, returns = read_npz(demos.bundled_demos_path(env_id))
+    expert = EXPERTS[env_id]
+    assert expert["training_steps"] == 1_000_000
+    assert returns.mean() >= target
+    assert not any(episode.terminated for episode in episodes) and expert["complete_episodes"] == len(episodes) == 10
+    assert returns.min() >= 0.8 * returns.mean() and expert["lowest_to_mean"] == pytest.approx(returns.min() / returns.mean())
 
 
 def test_a_bundle_entry_says_which_evaluation_was_kept_and_what_a_run_may_draw(store):
