@@ -20,7 +20,7 @@ from pathlib import Path
 from lwail_cli import config as cfg
 from lwail_cli.artifacts import Store
 from lwail_cli.evaluation import d4rl_reference
-from lwail_cli.stages.shared import load_demos, parent
+from lwail_cli.loaders import load_demos, parent
 
 BUNDLE = Path(__file__).resolve().parents[1] / "src" / "lwail_cli" / "demos"
 

@@ -9,7 +9,7 @@ from lwail_cli.errors import LwailError
 from lwail_cli.formats.npz import read_npz, write_npz
 from lwail_cli.rollout import rollout
 from lwail_cli.stages.collect import collect
-from lwail_cli.stages.shared import load_dataset
+from lwail_cli.loaders import load_dataset
 
 
 def random_episodes(env_id, transitions, seed):

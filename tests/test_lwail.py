@@ -5,7 +5,7 @@ import torch
 
 from lwail_cli import config as cfg
 from lwail_cli.stages import collect, demos, embed, evaluate, expert, imitate, warmup
-from lwail_cli.stages.shared import load_policy
+from lwail_cli.loaders import load_policy
 from lwail_cli.data import Episode
 from lwail_cli.errors import LwailError
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features

@@ -8,7 +8,7 @@ from lwail_cli.envs import describe_env
 from lwail_cli.replay import ReplayBuffer
 from lwail_cli.seeds import STREAMS, stream_seeds
 from lwail_cli.stages.collect import collect
-from lwail_cli.stages.shared import load_dataset
+from lwail_cli.loaders import load_dataset
 from lwail_cli.td3 import TD3
 from lwail_cli.training import train_td3
 

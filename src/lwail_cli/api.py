@@ -16,8 +16,8 @@ import torch
 from .artifacts import Store
 from .discriminator import transition_features
 from .formats.npz import episode_arrays
-from .stages.shared import load_critic, load_dataset, load_demos, load_encoder, parent, policy_fn
-from .stages.shared import load_policy as load_actor
+from .loaders import load_critic, load_dataset, load_demos, load_encoder, parent, policy_fn
+from .loaders import load_policy as load_actor
 
 
 class Policy:

@@ -13,14 +13,11 @@ from dataclasses import dataclass
 
 from .errors import LwailError
 # the machinery, re-exported: callers build, record and override configs as cfg.to_dict, cfg.with_overrides, ...
-from .settings import Validated, describe, from_dict, section, setting, to_dict, with_overrides  # noqa: F401
+from .settings import Validated, describe, from_dict, resume_may_change, section, setting, to_dict, with_overrides  # noqa: F401
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
-# train keys a resumed run may change: its budget and how it is observed, none of which changes what it trains
-# (evaluations use their own environments and no training randomness; tests/test_lwail.py checks it bit for bit)
-RESUME_MAY_CHANGE = ("steps", "eval_every", "eval_episodes", "checkpoint_every", "average_tau")
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
 
 
@@ -51,13 +48,13 @@ class TD3Config(Validated):
 class TrainConfig(Validated):
     """The schedule of an online TD3 run (an expert on the true reward, or LWAIL)."""
 
-    steps: int = setting(1_000_000, "environment steps, one TD3 update each", low=1, high=MAX_STEPS)
-    eval_every: int = setting(10_000, "evaluate the deterministic actor every this many env steps", low=1, high=MAX_STEPS)
-    eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000)
-    checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS)
+    steps: int = setting(1_000_000, "environment steps, one TD3 update each", low=1, high=MAX_STEPS, resume_may_change=True)
+    eval_every: int = setting(10_000, "evaluate the deterministic actor every this many env steps", low=1, high=MAX_STEPS, resume_may_change=True)
+    eval_episodes: int = setting(10, "episodes per evaluation", low=1, high=1000, resume_may_change=True)
+    checkpoint_every: int = setting(50_000, "checkpoint the whole run every this many env steps", low=1, high=MAX_STEPS, resume_may_change=True)
     policy: str = setting("target", "the network evaluated and kept: target (the actor's Polyak average; docs/algorithm.md), actor (the online one) or average", choices=POLICY_NETWORKS)
     evaluate_other: bool = setting(True, "also evaluate the networks policy does not name on the same episodes (<name>_* columns)")
-    average_tau: float = setting(0.0, "Polyak rate of a slower average of the actor, updated with the target (0: none); never feeds training", low=0.0, high=1.0)
+    average_tau: float = setting(0.0, "Polyak rate of a slower average of the actor, updated with the target (0: none); never feeds training", low=0.0, high=1.0, resume_may_change=True)
 
     def check(self) -> None:
         if vars(self)["policy"] == "average" and vars(self)["average_tau"] == 0.0:
@@ -109,8 +106,8 @@ class ICVFConfig(Validated):
     p_goal_trajectory: float = setting(0.5, "goal = a later state of the same trajectory (else a random dataset state)", low=0.0, high=1.0)
     p_outcome_is_goal: float = setting(0.5, "outcome s+ = the goal z with this probability (else drawn anew)", low=0.0, high=1.0)
     holdout_fraction: float = setting(0.1, "episodes held out of training for the quality probe", low=0.0, below=1.0)
-    log_every: int = setting(500, "log the loss and probe every this many steps", low=1, high=MAX_STEPS)
-    checkpoint_every: int = setting(5_000, "checkpoint the pre-training every this many steps (resume: --resume)", low=1, high=MAX_STEPS)
+    log_every: int = setting(500, "log the loss and probe every this many steps", low=1, high=MAX_STEPS, resume_may_change=True)
+    checkpoint_every: int = setting(5_000, "checkpoint the pre-training every this many steps (resume: --resume)", low=1, high=MAX_STEPS, resume_may_change=True)
 
     def check(self) -> None:
         trajectory_goals = vars(self)["p_goal_current"] + vars(self)["p_goal_trajectory"]

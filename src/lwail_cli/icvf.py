@@ -8,7 +8,6 @@ All ensemble members run as one batched matmul; goal sampling happens on the com
 from __future__ import annotations
 
 import copy
-import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -22,6 +21,7 @@ from .data import Episode, flatten, transition_pairs
 from .discriminator import transition_features
 from .evaluation import spearman
 from .nets import StackedMLP, soft_update
+from .resumable import Stopwatch, capture, checkpoint_due, restore
 
 
 def _embedding_net(members: int, in_dim: int, config: ICVFConfig) -> StackedMLP:
@@ -223,38 +223,31 @@ def pretrain_icvf(
     on_checkpoint: Callable[[dict], None] | None = None,
     expert: list[Episode] | None = None,
 ) -> ICVFResult:
-    """ICVF on the episodes; every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state, and
-    ``resume`` (such a state) continues bit for bit. Given the ``expert`` episodes, every log row also probes what
+    """ICVF on the episodes; every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state
+    (``resumable.capture``), and ``resume`` (such a state) continues bit for bit. Given the ``expert`` episodes, every log row also probes what
     the critic needs (``probe_critic_needs``), so one long run shows which budget φ needs."""
     torch.manual_seed(seed)
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     sampler = GoalSampler(train, config, torch.device(device))
     learner = ICVFLearner(obs_dim, config, device)
-    rows, running, first, elapsed = [], torch.zeros((), device=device), 1, 0.0
+    parts = {"learner": learner}
+    rows, running, first, clock = [], torch.zeros((), device=device), 1, Stopwatch()
     if resume is not None:
-        learner.load_state_dict(resume["learner"])
-        torch.set_rng_state(resume["torch_rng"])
-        if resume.get("cuda_rng") is not None:
-            torch.cuda.set_rng_state_all(resume["cuda_rng"])
-        rows, first, elapsed = list(resume["rows"]), resume["step"] + 1, resume["wall_time"]
+        restore(resume, parts)
+        rows, first, clock = list(resume["rows"]), resume["step"] + 1, Stopwatch(resume["wall_time"])
         running = resume["running"].to(device)
-    started = time.perf_counter() - elapsed
     for step in range(first, config.steps + 1):
         running += learner.update(sampler.sample(config.batch_size))
         if step % config.log_every == 0 or step == config.steps:
-            span = config.log_every if step % config.log_every == 0 else step % config.log_every
+            span = step - (rows[-1]["step"] if rows else 0)  # the steps ``running`` summed: a resume may change log_every
             encoder = export_encoder(learner.model, obs_dim, config).cpu()
             loss = running.item() / span
-            rows.append({"step": step, "wall_time": time.perf_counter() - started, "loss": loss, "probe_latent": probe_spearman(encoder, held_out)}
+            rows.append({"step": step, "wall_time": clock.elapsed(), "loss": loss, "probe_latent": probe_spearman(encoder, held_out)}
                         | ({} if expert is None else probe_critic_needs(encoder, expert, held_out)))
             running.zero_()
             if on_progress is not None:
                 on_progress(step, rows[-1]["loss"])
-        if on_checkpoint is not None and step % config.checkpoint_every == 0 and step < config.steps:
-            on_checkpoint({
-                "learner": learner.state_dict(), "torch_rng": torch.get_rng_state(),
-                "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
-                "rows": list(rows), "step": step, "wall_time": time.perf_counter() - started, "running": running.detach().cpu().clone(),
-            })
+        if on_checkpoint is not None and checkpoint_due(step, config.checkpoint_every, config.steps):
+            on_checkpoint(capture(parts, rows=list(rows), step=step, wall_time=clock.elapsed(), running=running.detach().cpu().clone()))
     encoder = export_encoder(learner.model, obs_dim, config).cpu()
     return ICVFResult(encoder, pd.DataFrame(rows), probe_spearman(encoder, held_out), probe_spearman(lambda x: x, held_out))

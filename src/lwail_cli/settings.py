@@ -19,12 +19,15 @@ from dataclasses import field
 from .errors import LwailError
 
 
-def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None):
+def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None, resume_may_change=False):
     """A config field: its default, a one-line doc, and the bounds checked on every construction
     (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values). ``aliases`` maps
-    values an older lwail recorded (or a plan still spells) to the value they mean now."""
+    values an older lwail recorded (or a plan still spells) to the value they mean now. ``resume_may_change``: a
+    killed run may be resumed with another value, because the field sets only the budget or how the run is watched
+    (logged, evaluated, checkpointed) and draws no training randomness; a resume that changes any other field is
+    refused (tests/test_lwail.py checks both bit for bit)."""
     return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices,
-                                            "aliases": aliases or {}})
+                                            "aliases": aliases or {}, "resume_may_change": resume_may_change})
 
 
 def section(factory, doc: str):
@@ -216,3 +219,16 @@ def describe(config, indent: str = "") -> str:
             shown = json.dumps(list(value) if isinstance(value, tuple) else value)
             lines.append(f"{indent}{f.name} = {shown}  # {f.metadata['doc']}")
     return "\n".join(lines)
+
+
+def resume_may_change(config_class: type, prefix: str = "") -> tuple[str, ...]:
+    """The settings (``section.field``, as ``--set`` names them) a resumed run may change: those declared with
+    ``resume_may_change=True``, in every section."""
+    hints = typing.get_type_hints(config_class)
+    keys: list[str] = []
+    for f in dataclasses.fields(config_class):
+        if dataclasses.is_dataclass(hints[f.name]):
+            keys += resume_may_change(hints[f.name], f"{prefix}{f.name}.")
+        elif f.metadata.get("resume_may_change"):
+            keys.append(f"{prefix}{f.name}")
+    return tuple(keys)

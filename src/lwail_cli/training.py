@@ -2,21 +2,20 @@
 
 One TD3 update per environment step. A reward model decides what the buffer's rewards are: the
 environment's own (experts) or σ(−f) relabelled as f changes (LWAIL, ``imitation.py``). The loop
-reports through callbacks and hands checkpoint state to a callback; it never prints or touches paths.
+reports through callbacks and hands its whole state (``resumable.capture``) to a callback; it never prints or touches paths.
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING, Callable, Protocol
 
-import gymnasium as gym
 import numpy as np
 import torch
 
 from .envs import make_env
+from .resumable import EnvironmentState, NumpyGenerator, Stopwatch, capture, checkpoint_due, restore
 from .rollout import rollout
 from .seeds import stream_seeds
 
@@ -99,44 +98,6 @@ def _scores(returns: np.ndarray, reference: Reference | None, prefix: str, std: 
     return row | ({} if reference is None else {f"{prefix}normalized_score": reference.normalize(mean)})
 
 
-def _env_state(env: gym.Env) -> dict:
-    state = {
-        "np_random": env.unwrapped.np_random.bit_generator.state,
-        "action_space": env.action_space.np_random.bit_generator.state,
-        "elapsed_steps": getattr(_time_limit(env), "_elapsed_steps", None),
-    }
-    if hasattr(env.unwrapped, "model") and hasattr(env.unwrapped, "data"):  # MuJoCo: the full integration state
-        import mujoco
-
-        model, data = env.unwrapped.model, env.unwrapped.data
-        physics = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_INTEGRATION))
-        mujoco.mj_getState(model, data, physics, mujoco.mjtState.mjSTATE_INTEGRATION)
-        state["mujoco"] = torch.from_numpy(physics)  # tensors only: checkpoints load with weights_only=True
-    return state
-
-
-def _restore_env_state(env: gym.Env, state: dict) -> None:
-    env.unwrapped.np_random.bit_generator.state = state["np_random"]
-    env.action_space.np_random.bit_generator.state = state["action_space"]
-    if "mujoco" in state:  # warm-start and actuator state included, so the rollout continues bit for bit
-        import mujoco
-
-        model, data = env.unwrapped.model, env.unwrapped.data
-        mujoco.mj_setState(model, data, state["mujoco"].numpy(), mujoco.mjtState.mjSTATE_INTEGRATION)
-        mujoco.mj_forward(model, data)
-    limit = _time_limit(env)
-    if limit is not None and state["elapsed_steps"] is not None:
-        limit._elapsed_steps = state["elapsed_steps"]
-
-
-def _time_limit(env: gym.Env) -> gym.wrappers.TimeLimit | None:
-    while isinstance(env, gym.Wrapper):
-        if isinstance(env, gym.wrappers.TimeLimit):
-            return env
-        env = env.env
-    return None
-
-
 def train_td3(
     env_id: str,
     agent: TD3,
@@ -161,24 +122,17 @@ def train_td3(
     obs, _ = env.reset(seed=online_seed)
     env.action_space.seed(online_seed)
     noise_rng = np.random.default_rng(online_seed)
+    parts = {"agent": agent, "buffer": buffer, "reward_model": reward_model, "noise_rng": NumpyGenerator(noise_rng), "env": EnvironmentState(env)}
     run = RunState()
     if resume is not None:
-        agent.load_state_dict(resume["agent"])
-        buffer.load_state_dict(resume["buffer"])
-        reward_model.load_state_dict(resume["reward_model"])
-        run = RunState(**resume["run"])
-        noise_rng.bit_generator.state = resume["noise_rng"]
-        torch.set_rng_state(resume["torch_rng"])
-        if resume.get("cuda_rng") is not None:
-            torch.cuda.set_rng_state_all(resume["cuda_rng"])
-        _restore_env_state(env, resume["env"])
-        obs = resume["obs"].numpy()
+        restore(resume, parts)
+        run, obs = RunState(**resume["run"]), resume["obs"].numpy()
     low, high = env.action_space.low, env.action_space.high
     noise_std = td3.exploration_noise * (high - low) / 2
-    started = time.perf_counter() - run.wall_time
+    clock = Stopwatch(run.wall_time)
 
     def evaluate_now() -> None:
-        run.wall_time = time.perf_counter() - started
+        run.wall_time = clock.elapsed()
         row = {"step": run.step, "wall_time": run.wall_time}
         row.update(evaluate_policy(agent, train, env_id, seed, reference, reward_model))
         if is_better(row, run):
@@ -213,24 +167,12 @@ def train_td3(
                 evaluate_now()
             elif on_progress is not None and run.step % progress_every == 0:
                 on_progress(run.step, run)
-            if on_checkpoint is not None and run.step % train.checkpoint_every == 0 and run.step < train.steps:
-                run.wall_time = time.perf_counter() - started
-                on_checkpoint(
-                    {
-                        "agent": agent.state_dict(),
-                        "buffer": buffer.state_dict(),
-                        "reward_model": reward_model.state_dict(),
-                        "run": run.__dict__.copy(),
-                        "noise_rng": noise_rng.bit_generator.state,
-                        "torch_rng": torch.get_rng_state(),
-                        "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
-                        "env": _env_state(env),
-                        "obs": torch.from_numpy(np.asarray(obs)),
-                    }
-                )
+            if on_checkpoint is not None and checkpoint_due(run.step, train.checkpoint_every, train.steps):
+                run.wall_time = clock.elapsed()
+                on_checkpoint(capture(parts, run=run.__dict__.copy(), obs=torch.from_numpy(np.asarray(obs))))
         if not run.history or run.history[-1]["step"] != run.step:  # resumed with --steps at its checkpoint
             evaluate_now()
     finally:
         env.close()
-    run.wall_time = time.perf_counter() - started
+    run.wall_time = clock.elapsed()
     return run

@@ -18,6 +18,7 @@ from .. import __version__
 from ..artifacts import Store
 from ..errors import LwailError
 from ..names import check_name
+from ..settings import resume_may_change
 from . import shorthands
 
 app = typer.Typer(
@@ -39,8 +40,15 @@ MAX_SEED = 2**32 - 1
 SEED = typer.Option(0, "--seed", help=f"Random seed (0 to {MAX_SEED}).", min=0, max=MAX_SEED)
 NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
 DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
-RESUME = typer.Option(False, "--resume", help="Continue the killed run of the same name from its last checkpoint; --steps (the checkpoint's step ends it there), --eval-every, --checkpoint-every, train.eval_episodes and train.average_tau may differ.")
 VIDEO = typer.Option(None, "--video", help="Write an MP4 of each episode into this folder (headless; needs lwail[video]).")
+
+
+def resume_option(config_class: type, run: str) -> typer.Option:
+    """--resume, its help listing the settings ``config_class`` declares ``resume_may_change``."""
+    keys = resume_may_change(config_class)
+    budget = " (--steps at the checkpoint's step ends the run there)" if "train.steps" in keys else ""
+    return typer.Option(False, "--resume", help=f"Continue the killed {run} of the same name from its last checkpoint; "
+                        f"{', '.join(keys[:-1])} and {keys[-1]} may differ{budget}.")
 
 
 def store() -> Store:

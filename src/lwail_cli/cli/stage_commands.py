@@ -17,7 +17,7 @@ from ..stages import expert as expert_stage
 from ..stages import imitate as imitate_stage
 from ..stages import warmup as warmup_stage
 from ..stages.shared import resolve_device
-from .app import DEVICE, NAME, RESUME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, say_written, store
+from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, resume_option, say_written, store
 
 
 # ------------------------------------------------------------------------------ data
@@ -49,7 +49,7 @@ def expert_train(
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
-    resume: bool = RESUME,
+    resume: bool = resume_option(cfg.ExpertConfig, "run"),
     *,
     config: cfg.ExpertConfig,
 ) -> None:
@@ -108,7 +108,7 @@ def pretrain_icvf(
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
-    resume: bool = typer.Option(False, "--resume", help="Continue the killed pre-training of the same name from its last checkpoint."),
+    resume: bool = resume_option(cfg.EmbedConfig, "pre-training"),
     *,
     config: cfg.EmbedConfig,
 ) -> None:
@@ -151,7 +151,7 @@ def imitate(
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
-    resume: bool = RESUME,
+    resume: bool = resume_option(cfg.ImitationConfig, "run"),
     *,
     config: cfg.ImitationConfig,
 ) -> None:

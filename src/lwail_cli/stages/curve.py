@@ -10,7 +10,7 @@ import pandas as pd
 from ..config import POLICY_NETWORKS
 from ..errors import LwailError
 from ..learning_curve import FILES
-from .plots import plot_run, plot_side_by_side, score_column
+from ..plots import plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store

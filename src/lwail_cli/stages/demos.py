@@ -14,9 +14,10 @@ from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
 from ..formats.npz import npz_load_bytes, write_npz
 from ..formats.sb3_zip import read_sb3_policy
+from ..loaders import load_policy, policy_fn
 from ..rollout import rollout
 from ..video import filmed_rollout
-from .shared import default_name, load_policy, policy_fn, read_external, require_memory
+from .shared import default_name, read_external, require_memory
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store

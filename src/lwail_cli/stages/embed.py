@@ -8,7 +8,9 @@ from .. import config as cfg
 from ..data import validate_episodes
 from ..envs import require_same_env
 from ..icvf import probe_critic_needs, pretrain_icvf, probe_spearman, split_episodes
-from .shared import Progress, default_name, load_dataset, load_demos, prepare_run, save_weights
+from ..loaders import load_dataset, load_demos, save_weights
+from ..runs import open_run, run_record
+from .shared import Progress, default_name
 
 if TYPE_CHECKING:
     import torch
@@ -48,17 +50,13 @@ def embed(
             writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe} | critic_probe(lambda x: x, "") | raw)
         return writer.artifact
     record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
-    with store.runs.claim_run("embedding", name, resume=resume):
-        checkpoints = prepare_run(store, "embedding", name, resume,
-                                  {"config": record, "seed": seed, "env": info.id, "parents": [p.hash for p in parents]})
+    with open_run(store, "embedding", name, resume=resume, record=run_record(record, seed, info.id, parents), config_class=cfg.EmbedConfig) as run:
         result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
                                None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}),
-                               resume=checkpoints.resume, on_checkpoint=checkpoints.on_checkpoint,
-                               expert=expert)
+                               resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert)
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
             result.log.to_csv(writer.path("loss.csv"), index=False)
             writer.metrics.update({"probe_spearman": result.probe_latent, "probe_spearman_raw": result.probe_raw, "final_loss": float(result.log["loss"].iloc[-1])})
             writer.metrics.update(critic_probe(result.encoder, "") | raw)
-        store.runs.clear_checkpoint("embedding", name)
     return writer.artifact

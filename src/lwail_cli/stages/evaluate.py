@@ -9,9 +9,10 @@ import pandas as pd
 from ..config import EvalConfig
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
+from ..loaders import load_policy, policy_fn
 from ..rollout import rollout
 from ..video import filmed_rollout
-from .shared import lineage_demos, load_policy, now, policy_fn, reference_for_env
+from .shared import lineage_demos, now, reference_for_env
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import LwailError
 from ..formats.sb3_zip import write_sb3_td3
-from .shared import load_policy
+from ..loaders import load_policy
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -5,37 +5,25 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import pandas as pd
+import torch
 
 from .. import config as cfg
+from .. import learning_curve
 from ..data import transition_pairs
 from ..discriminator import DiscriminatorTrainer
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
 from ..imitation import AdversarialReward
-from .plots import plot_run
-from .shared import (
-    PolicyRun,
-    Progress,
-    critic_config,
-    default_name,
-    expert_pairs,
-    load_critic,
-    load_dataset,
-    load_encoder,
-    pair_features,
-    parent,
-    reference_for_env,
-    save_weights,
-    train_policy,
-)
+from ..loaders import critic_config, load_critic, load_dataset, load_encoder, parent, save_weights
+from ..plots import plot_run
+from ..runs import open_run, run_record
+from .online import final_metrics, replay_capacity, train_policy, write_curve
+from .shared import Progress, default_name, expert_pairs, pair_features, reference_for_env
 
 if TYPE_CHECKING:
-    import torch
-
     from ..artifacts import Artifact, Store
 
 DIAGNOSTIC_PAIRS = 4_000  # random-policy pairs of data set I whose reward is logged at each evaluation
-
 
 def imitate(
     store: Store, *, env_id: str, demos_ref: str, embedding_ref: str, disc_ref: str, config: cfg.ImitationConfig, seed: int,
@@ -57,22 +45,24 @@ def imitate(
     expert_states = expert_pairs(demos, config.expert_episodes)
     random_states = tuple(pairs[:DIAGNOSTIC_PAIRS] for pairs in transition_pairs(load_dataset(parent(store, disc, "dataset"))))
     reference = reference_for_env(env_id, demos)
-
-    def reward_model(capacity: int) -> AdversarialReward:
+    name = name or default_name(env_id, "lwail")
+    parents = [demos, embedding, disc]
+    record = {**cfg.to_dict(config), "critic": cfg.to_dict(critic)}
+    with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, parents), config_class=cfg.ImitationConfig) as run:
+        capacity = replay_capacity(run, info, config, feature_width=disc.config["input_dim"])
+        torch.manual_seed(seed)  # φ's and f's initial weights (replaced by their artifacts'), then the agent's
         encoder = load_encoder(embedding, device)
         expert = pair_features(encoder, *expert_states, device)
         trainer = DiscriminatorTrainer(load_critic(disc, device), critic)
-        return AdversarialReward(encoder, trainer, expert, capacity, update_every=config.update_every, update_steps=config.update_steps,
-                                 random_features=pair_features(encoder, *random_states, device))
-
-    def write(writer, result, agent, rewards: AdversarialReward) -> None:
-        save_weights(writer.path("actor.safetensors"), agent.network(config.train.policy).state_dict())
-        save_weights(writer.path("critic.safetensors"), rewards.trainer.critic.state_dict())
-        plot_run(pd.DataFrame(result.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"), f"LWAIL on {env_id}")
-
-    run = PolicyRun(
-        env_id=env_id, name=name or default_name(env_id, "lwail"), config=config, seed=seed, parents=[demos, embedding, disc],
-        trained_on="LWAIL pseudo-reward", reference=reference, reward_model=reward_model, write=write,
-        recorded={**cfg.to_dict(config), "critic": cfg.to_dict(critic)}, feature_width=disc.config["input_dim"],
-    )
-    return train_policy(store, run, device=device, resume=resume, on_progress=on_progress)
+        reward_model = AdversarialReward(encoder, trainer, expert, capacity, update_every=config.update_every, update_steps=config.update_steps,
+                                         random_features=pair_features(encoder, *random_states, device))
+        trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
+                               reward_model=reward_model, reference=reference, on_progress=on_progress)
+        with store.create("policy", name, env=info, config=record, seed=seed, parents=parents, extra={"trained_on": "LWAIL pseudo-reward"}) as writer:
+            write_curve(writer.path(learning_curve.FILE), trained.state)
+            save_weights(writer.path("actor.safetensors"), trained.agent.network(config.train.policy).state_dict())
+            save_weights(writer.path("critic.safetensors"), reward_model.trainer.critic.state_dict())
+            plot_run(pd.DataFrame(trained.state.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"),
+                     f"LWAIL on {env_id}")
+            writer.metrics.update(final_metrics(trained.state, reference))
+    return writer.artifact

@@ -12,7 +12,7 @@ import pandas as pd
 from ..errors import LwailError
 from .curve import curve_figures, policy_curve
 from .evaluate import normalized_evaluations
-from .plots import plot_bands
+from ..plots import plot_bands
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store

@@ -11,7 +11,8 @@ from .. import config as cfg
 from ..data import transition_pairs
 from ..discriminator import Critic, DiscriminatorTrainer
 from ..envs import require_same_env
-from .shared import Progress, default_name, expert_pairs, load_dataset, load_encoder, pair_features, parent, save_weights
+from ..loaders import load_dataset, load_encoder, parent, save_weights
+from .shared import Progress, default_name, expert_pairs, pair_features
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..config import POLICY_NETWORKS
-from ..learning_curve import PSEUDO_REWARD, REWARDS
+from .config import POLICY_NETWORKS
+from .learning_curve import PSEUDO_REWARD, REWARDS
 
 
 def score_column(history: pd.DataFrame) -> str:

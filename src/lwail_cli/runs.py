@@ -1,0 +1,76 @@
+"""A long run's place in the store: claimed, resumed under the resume rule, checkpointed, cleared when done.
+
+`expert train`, `imitate` and `pretrain-icvf` each open their run here; the algorithm inside hands its whole state
+(``resumable.capture``) to ``Run.save_checkpoint`` and continues bit for bit from ``Run.resume``. A checkpoint
+records what made the run (config, seed, env, parents); a resume under anything else is refused, except the
+settings declared ``resume_may_change`` (the budget, and how the run is logged, evaluated and checkpointed).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Iterator
+
+from . import config as cfg
+from .errors import LwailError
+
+if TYPE_CHECKING:
+    from .artifacts import Artifact, Store
+
+
+@dataclass(frozen=True)
+class Run:
+    store: Store
+    kind: str
+    name: str
+    record: dict  # what made the run, saved in every checkpoint
+    resume: dict | None  # the checkpoint the run continues from; None for a fresh run
+
+    def save_checkpoint(self, state: dict) -> None:
+        self.store.runs.save_checkpoint(self.kind, self.name, {**state, "record": self.record})
+
+    def write_log(self, filename: str, rows: list[dict]) -> None:
+        """A CSV kept beside the checkpoint while the run goes on (what ``lwail curve`` shows of a live run)."""
+        self.store.runs.write_run_log(self.kind, self.name, filename, rows)
+
+
+def run_record(config: dict, seed: int, env_id: str, parents: list[Artifact]) -> dict:
+    """What makes a run: the recorded config, the seed, the env and the hashes of the artifacts it reads."""
+    return {"config": config, "seed": seed, "env": env_id, "parents": [p.hash for p in parents]}
+
+
+@contextmanager
+def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, config_class: type) -> Iterator[Run]:
+    """Claim the run ``kind/name`` for this process (a fresh run never overwrites a killed run's checkpoint) and, with
+    ``resume``, load its checkpoint, refused when made from another ``record`` than this one: only the settings of
+    ``config_class`` declared ``resume_may_change`` may differ. The block writes the run's artifact; when it ends
+    normally the checkpoint goes, when it raises the checkpoint stays for the next ``--resume``."""
+    with store.runs.claim_run(kind, name, resume=resume):
+        state = store.runs.load_checkpoint(kind, name) if resume else None
+        if state is not None:
+            _refuse_another_run(kind, name, state["record"], record, cfg.resume_may_change(config_class))
+        yield Run(store, kind, name, record, state)
+        store.runs.clear_checkpoint(kind, name)
+
+
+def _refuse_another_run(kind: str, name: str, recorded: dict, record: dict, may_change: tuple[str, ...]) -> None:
+    changed = [key for key in record if _what_trains(recorded.get(key), may_change) != _what_trains(record[key], may_change)]
+    if changed:
+        raise LwailError(
+            f"the checkpoint of {kind}/{name} was made with another {' and '.join(changed)}; "
+            f"rerun with the same options (only {', '.join(may_change)} may differ), or without --resume"
+        )
+
+
+def _what_trains(value, may_change: tuple[str, ...]):
+    """A recorded value without the settings a resume may change (``section.field`` keys, at any depth)."""
+    if not isinstance(value, dict):
+        return value
+    kept = {}
+    for key, item in value.items():
+        if key in may_change:
+            continue
+        inner = tuple(setting.partition(".")[2] for setting in may_change if setting.startswith(f"{key}."))
+        kept[key] = _what_trains(item, inner) if inner else item
+    return kept

@@ -1,0 +1,101 @@
+"""An online TD3 run from its opened run folder to its results: what `expert train` and `imitate` share.
+
+A stage opens the run (``runs.open_run``), calls ``replay_capacity``, seeds torch, builds what it adds (LWAIL's
+reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import pandas as pd
+
+from .. import learning_curve
+from ..errors import LwailError
+from ..replay import ReplayBuffer
+from ..td3 import TD3
+from ..training import RunState, train_td3
+from .shared import Progress, require_memory
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    import torch
+
+    from .. import config as cfg
+    from ..envs import EnvInfo
+    from ..evaluation import Reference
+    from ..runs import Run
+    from ..training import RewardModel
+
+
+@dataclass(frozen=True)
+class TrainedPolicy:
+    state: RunState  # the history of evaluations, the best one and the wall time
+    agent: TD3
+    reward_model: RewardModel | None
+
+
+def replay_capacity(run: Run, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, *, feature_width: int = 0) -> int:
+    """The replay buffer's capacity, once this run is known to go ahead: a resume may raise the budget, or stop at the
+    checkpoint's step, but not end before it, and the buffer must fit in memory. A resumed run's curve loses the rows
+    its killed process logged after the checkpoint. ``feature_width``: floats the reward model caches per transition."""
+    if run.resume is not None:
+        reached = run.resume["run"]["step"]
+        if reached > config.train.steps:
+            raise LwailError(f"the checkpoint of {run.kind}/{run.name} is at step {reached}: --steps must be at least {reached}")
+        run.write_log(learning_curve.FILE, run.resume["run"]["history"])
+    capacity = min(config.td3.buffer_size, config.train.steps)
+    floats = 2 * info.obs_dim + info.act_dim + 2 + feature_width  # s, a, s', r, not-done (+ cached features)
+    require_memory(4 * capacity * floats, f"a replay buffer of {capacity} transitions")
+    return capacity
+
+
+def train_policy(
+    run: Run, *, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, seed: int, capacity: int,
+    device: torch.device, reward_model: RewardModel | None = None, reference: Reference | None = None,
+    on_progress: Progress | None = None,
+) -> TrainedPolicy:
+    """Build the agent and its buffer (torch seeded before, the reward model built after the seed) and train to
+    ``config.train.steps``, checkpointing into ``run`` and logging each evaluation to its learning curve."""
+    agent = TD3(info, config.td3, device, average_tau=config.train.average_tau)
+    buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
+    state = train_td3(
+        info.id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model, reference=reference,
+        resume=run.resume, on_checkpoint=run.save_checkpoint,
+        on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
+        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
+    )
+    return TrainedPolicy(state, agent, reward_model)
+
+
+def run_summary(run: RunState) -> dict:
+    """The latest episode return, evaluation and score of a run in progress; at an evaluation's step, also that
+    evaluation's whole row as ``curve/<column>`` (what a live logger records beside the CSV)."""
+    shown = {}
+    if run.episode_returns:
+        shown["ep_return"] = run.episode_returns[-1]
+    if run.history:
+        last = run.history[-1]
+        shown["eval"] = last["return_mean"]
+        if "normalized_score" in last:
+            shown["score"] = last["normalized_score"]
+        if last["step"] == run.step:
+            shown.update({f"curve/{column}": value for column, value in last.items() if column != "step"})
+    return shown
+
+
+def write_curve(path: Path, run: RunState) -> None:
+    pd.DataFrame(run.history).to_csv(path, index=False)
+
+
+def final_metrics(run: RunState, reference: Reference | None) -> dict:
+    """The metrics every policy artifact ends with: its budget, wall time and last evaluation (and the reference)."""
+    last = run.history[-1]
+    metrics = {"env_steps": run.step, "wall_time_s": round(run.wall_time, 1), "return_mean": last["return_mean"], "return_std": last["return_std"]}
+    if "normalized_score" in last:
+        metrics["normalized_score"] = last["normalized_score"]
+    if reference is not None:
+        metrics["reference"] = reference.source
+    return metrics
