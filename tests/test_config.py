@@ -82,3 +82,14 @@ def test_every_field_has_a_doc_and_defaults_describe_it(stage):
         assert "\n" not in f.metadata["doc"]
     described = cfg.describe(config_type())
     assert all(f"{f.name} = " in described for _, f in _fields(config_type))
+
+
+def test_the_settings_a_resume_may_change_are_declared_on_them_and_listed_in_the_resume_help():
+    """The budget and how a run is watched (logged, evaluated, checkpointed), in every section; nothing that trains."""
+    from lwail_cli.cli import resume_option
+
+    online = ("train.steps", "train.eval_every", "train.eval_episodes", "train.checkpoint_every", "train.average_tau")
+    assert cfg.resume_may_change(cfg.ExpertConfig) == cfg.resume_may_change(cfg.ImitationConfig) == online
+    assert cfg.resume_may_change(cfg.EmbedConfig) == ("icvf.log_every", "icvf.checkpoint_every")
+    assert "icvf.log_every and icvf.checkpoint_every may differ." in resume_option(cfg.EmbedConfig, "pre-training").help
+    assert "train.checkpoint_every and train.average_tau may differ" in resume_option(cfg.ImitationConfig, "run").help

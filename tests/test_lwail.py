@@ -120,7 +120,10 @@ def test_resume_after_a_kill_continues_exactly_from_the_checkpoint(store):
 
     with pytest.raises(Killed):
         expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, on_progress=kill_after_checkpoint)
-    assert store.runs.load_checkpoint("policy", "killed")["run"]["step"] == 500
+    checkpoint = store.runs.load_checkpoint("policy", "killed")
+    assert checkpoint["run"]["step"] == 500
+    # the layout lwail has always written: a run killed under an older lwail resumes under this one
+    assert set(checkpoint) == {"agent", "buffer", "reward_model", "run", "noise_rng", "torch_rng", "cuda_rng", "env", "obs", "record"}
     resumed = expert.train_expert(store, env_id="Hopper-v5", config=config, seed=3, name="killed", device=device, resume=True)
     a = load_policy(straight).state_dict()
     b = load_policy(resumed).state_dict()
@@ -249,15 +252,30 @@ def test_icvf_pretraining_resumes_after_a_kill_bit_for_bit(store):
         if step == 50:  # after the checkpoint at 40: steps 41-50 are lost and redone
             raise Killed
 
-    with pytest.raises(Killed):
-        embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, on_progress=kill)
-    assert store.runs.load_checkpoint("embedding", "killed")["step"] == 40
+    for name in ("killed", "observed"):
+        with pytest.raises(Killed):
+            embed.embed(store, data_ref=data.ref, config=config, seed=0, name=name, device=device, on_progress=kill)
+    checkpoint = store.runs.load_checkpoint("embedding", "killed")
+    assert checkpoint["step"] == 40
+    assert set(checkpoint) == {"learner", "torch_rng", "cuda_rng", "rows", "step", "wall_time", "running", "record"}  # as ever
     with pytest.raises(LwailError, match="made with another seed"):
         embed.embed(store, data_ref=data.ref, config=config, seed=1, name="killed", device=device, resume=True)
+    with pytest.raises(LwailError, match=r"another config; rerun with the same options \(only icvf.log_every, icvf.checkpoint_every may"):
+        embed.embed(store, data_ref=data.ref, config=cfg.with_overrides(config, ["icvf.lr=0.001"]), seed=0, name="killed", device=device, resume=True)
     resumed = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, resume=True)
     assert straight.file("phi.safetensors").read_bytes() == resumed.file("phi.safetensors").read_bytes()
     assert straight.file("loss.csv").read_text().count("\n") == resumed.file("loss.csv").read_text().count("\n") == 7
     assert not store.runs.has_checkpoint("embedding", "killed")
+    # logging and checkpointing on another schedule changes nothing trained, and each logged loss is the mean since the last row
+    observed_config = cfg.with_overrides(config, ["icvf.log_every=15", "icvf.checkpoint_every=7"])
+    observed = embed.embed(store, data_ref=data.ref, config=observed_config, seed=0, name="observed", device=device, resume=True)
+    assert straight.file("phi.safetensors").read_bytes() == observed.file("phi.safetensors").read_bytes()
+    straight_loss = pd.read_csv(straight.file("loss.csv")).set_index("step")["loss"]
+    observed_loss = pd.read_csv(observed.file("loss.csv")).set_index("step")["loss"]
+    assert observed_loss.index.tolist() == [10, 20, 30, 40, 45, 60]  # logged every 10 before the kill, every 15 after it
+    assert observed_loss[:40].tolist() == straight_loss[:40].tolist()
+    # steps 41-60 summed: 41-45 and 46-60 here, 41-50 and 51-60 in the straight run
+    assert 5 * observed_loss[45] + 15 * observed_loss[60] == pytest.approx(10 * straight_loss[50] + 10 * straight_loss[60])
 
 
 def test_a_killed_run_is_neither_overwritten_nor_run_twice(store):

@@ -9,13 +9,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, ContextManager
 
 from .. import config as cfg
-from .collect import collect
+from .chain import CHAIN, MAKES, run_stage
 from .demos import bundled_demos_path, import_bundled_demos
-from .embed import embed
 from .evaluate import evaluate
-from .imitate import imitate
 from .shared import Progress
-from .warmup import warmup
 
 if TYPE_CHECKING:
     import torch
@@ -33,6 +30,11 @@ class QuickstartPlan:
     warmup: cfg.WarmupConfig
     imitation: cfg.ImitationConfig
     evaluation: cfg.EvalConfig
+
+    def stages(self) -> list[tuple[str, object, int]]:
+        """The chain's stages in order, each with its config and the work its progress bar counts."""
+        return [("collect", self.collect, self.collect.transitions), ("pretrain-icvf", self.embed, self.embed.icvf.steps),
+                ("warmup-disc", self.warmup, self.warmup.steps), ("imitate", self.imitation, self.imitation.train.steps)]
 
 
 def quickstart_plan(env_id: str, steps: int | None) -> QuickstartPlan:
@@ -72,19 +74,10 @@ def quickstart(
     """Run the chain; returns the final evaluation."""
     progress = progress or (lambda label, total: nullcontext(None))
     written = on_written or (lambda artifact: None)
-    demos = import_bundled_demos(store, env_id=env_id)
-    written(demos)
-    with progress("1/4 collect", plan.collect.transitions) as report:
-        data = collect(store, env_id=env_id, config=plan.collect, seed=seed, on_progress=report)
-    written(data)
-    with progress("2/4 pretrain-icvf", plan.embed.icvf.steps) as report:
-        embedding = embed(store, data_ref=data.ref, config=plan.embed, seed=seed, device=device, demos_ref=demos.ref, on_progress=report)
-    written(embedding)
-    with progress("3/4 warmup-disc", plan.warmup.steps) as report:
-        disc = warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=plan.warmup, seed=seed, device=device, on_progress=report)
-    written(disc)
-    with progress("4/4 imitate", plan.imitation.train.steps) as report:
-        policy = imitate(store, env_id=env_id, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref,
-                         config=plan.imitation, seed=seed, device=device, on_progress=report)
-    written(policy)
-    return evaluate(store, policy_ref=policy.ref, config=plan.evaluation, normalized=True)
+    made = {"demos": import_bundled_demos(store, env_id=env_id)}
+    written(made["demos"])
+    for number, (stage, config, total) in enumerate(plan.stages(), 1):
+        with progress(f"{number}/{len(CHAIN)} {stage}", total) as report:
+            made[MAKES[stage]] = run_stage(store, stage, made=made, env_id=env_id, config=config, seed=seed, device=device, on_progress=report)
+        written(made[MAKES[stage]])
+    return evaluate(store, policy_ref=made["policy"].ref, config=plan.evaluation, normalized=True)

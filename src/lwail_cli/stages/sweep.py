@@ -24,19 +24,17 @@ from .. import config as cfg
 from ..artifacts import Store
 from ..errors import LwailError
 from ..names import check_name
-from .collect import collect
+from .chain import CHAIN, MAKES, READS, run_stage
 from .curve import read_curve
 from .demos import bundled_demos_path, import_bundled_demos
-from .embed import embed
 from .evaluate import evaluate, logged_normalized_evaluation
-from .imitate import imitate
-from .warmup import warmup
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact
 
-PLAN_STAGES = ("collect", "pretrain-icvf", "warmup-disc", "imitate", "eval")
+PLAN_STAGES = (*CHAIN, "eval")
 IMITATING = "imitating"  # the status line whose step and score the driver reads from the run's curve
+STATUS = {"pretrain-icvf": "pre-training φ", "warmup-disc": "warming up f", "imitate": IMITATING}  # a run's line while in a stage
 EMBEDDINGS = ("icvf", "identity")
 PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants", "threads"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
@@ -79,8 +77,9 @@ class SweepPlan:
 
     def names(self, run: SweepRun) -> dict[str, str]:
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
-        return {"demos": f"{self.name}-{run.task.lower()}-demos", "data": f"{base}-data", "embedding": f"{base}-{run.kind}",
-                "disc": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
+        """Each artifact's name, by kind."""
+        return {"demos": f"{self.name}-{run.task.lower()}-demos", "dataset": f"{base}-data", "embedding": f"{base}-{run.kind}",
+                "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
 
     def to_dict(self) -> dict:
         return {"name": self.name, "tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds),
@@ -186,41 +185,36 @@ def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
 def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
     """Data set I of a task and seed, shared by the runs of every embedding kind (its ref returned)."""
     store, plan = _worker(root, plan_dict)
-    name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["data"], plan.config("collect")
+    name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["dataset"], plan.config("collect")
     waiting = [plan.names(SweepRun(task, seed, kind))["policy"] for kind in plan.kinds]  # the runs that need this data
     for run_name in waiting:
         store.runs.set_sweep_status(plan.name, run_name, "collecting data set I")
     data = _once(store, plan, "dataset", name, {"config": cfg.to_dict(config), "seed": seed, "task": task},
-                 lambda: collect(store, env_id=task, config=config, seed=seed, name=name))
+                 lambda: run_stage(store, "collect", made={}, env_id=task, config=config, seed=seed, name=name))
     for run_name in waiting:  # queued again, until a CPU is free for the run itself
         store.runs.clear_sweep_status(plan.name, run_name)
     return data.ref
 
 
 def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str) -> dict:
-    """One run's own chain: embed → warm-up → imitate (resumed if killed) → evaluate."""
+    """One run's own chain: embed → warm-up → imitate (each resumed from its checkpoint if killed) → evaluate."""
     import torch
 
     store, plan = _worker(root, plan_dict)
     run, device = SweepRun(task, seed, kind), torch.device("cpu")
     names = plan.names(run)
     status = functools.partial(store.runs.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
-    demos, data = store.resolve(demos_ref, "demos"), store.resolve(data_ref, "dataset")
-    status("pre-training φ")
-    embed_config = plan.config("pretrain-icvf", kind)
-    embedding = _once(store, plan, "embedding", names["embedding"], _record(embed_config, seed, data, demos),
-                      lambda: embed(store, data_ref=data.ref, config=embed_config, seed=seed, name=names["embedding"], device=device, demos_ref=demos.ref))
-    status("warming up f")
-    warmup_config = plan.config("warmup-disc", kind)
-    disc = _once(store, plan, "discriminator", names["disc"], _record(warmup_config, seed, embedding, demos),
-                 lambda: warmup(store, embedding_ref=embedding.ref, demos_ref=demos.ref, config=warmup_config, seed=seed, name=names["disc"], device=device))
-    status(IMITATING)
-    imitation_config = plan.config("imitate", kind)
-    policy = _once(store, plan, "policy", names["policy"], _record(imitation_config, seed, demos, embedding, disc),
-                   lambda: imitate(store, env_id=task, demos_ref=demos.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=imitation_config,
-                                   seed=seed, name=names["policy"], device=device, resume=store.runs.has_checkpoint("policy", names["policy"])))
+    made = {"demos": store.resolve(demos_ref, "demos"), "dataset": store.resolve(data_ref, "dataset")}
+    for stage in CHAIN[1:]:
+        status(STATUS[stage])
+        config, made_kind = plan.config(stage, kind), MAKES[stage]
+        name = names[made_kind]
+        made[made_kind] = _once(store, plan, made_kind, name, _record(config, seed, *(made[read] for read in READS[stage])),
+                                lambda: run_stage(store, stage, made=made, env_id=task, config=config, seed=seed, device=device, name=name,
+                                                  resume=store.runs.has_checkpoint(made_kind, name)))
     status("evaluating")
     eval_config = plan.config("eval", kind)  # a restart does not evaluate a finished run again
+    policy = made["policy"]
     result = (logged_normalized_evaluation(store, policy_ref=policy.ref, config=eval_config)
               or evaluate(store, policy_ref=policy.ref, config=eval_config, normalized=True))
     store.runs.clear_sweep_status(plan.name, names["policy"])  # done: the driver says so from Ray
