@@ -118,7 +118,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
             return stage(*args, **kwargs)
         return call
 
-    for stage in ("collect", "embed", "warmup", "imitate", "evaluate"):
+    for stage in ("run_stage", "evaluate"):  # the chain's stages (collect, pretrain-icvf, warmup-disc, imitate) and eval
         monkeypatch.setattr(sweep, stage, watched(getattr(sweep, stage)))
     threads = torch.get_num_threads()
     try:  # the Ray tasks' bodies, in this process

@@ -1,4 +1,4 @@
-"""Pictures of a run's learning curve and diagnostics (used by `imitate` and `curve`; not a stage)."""
+"""Pictures of a run's learning curve and diagnostics, and of a sweep's bands (used by `imitate`, `curve` and `report`)."""
 
 from __future__ import annotations
 

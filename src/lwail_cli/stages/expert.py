@@ -11,7 +11,7 @@ from .. import learning_curve
 from ..envs import describe_env
 from ..loaders import save_weights
 from ..runs import open_run, run_record
-from .online import final_metrics, replay_capacity, train_policy, write_curve
+from .online import continue_run, final_metrics, replay_capacity, train_policy, write_curve
 from .shared import Progress, default_name, reference_for_env
 
 if TYPE_CHECKING:
@@ -27,8 +27,9 @@ def train_expert(
     info = describe_env(env_id)
     record = cfg.to_dict(config)
     with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, []), config_class=cfg.ExpertConfig) as run:
-        capacity = replay_capacity(run, info, config)
-        torch.manual_seed(seed)
+        continue_run(run, config)
+        capacity = replay_capacity(info, config)
+        torch.manual_seed(seed)  # the agent's initial weights (a resume then restores every generator)
         trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
                                reference=reference, on_progress=on_progress)
         state = trained.state

@@ -17,7 +17,7 @@ from ..imitation import AdversarialReward
 from ..loaders import critic_config, load_critic, load_dataset, load_encoder, parent, save_weights
 from ..plots import plot_run
 from ..runs import open_run, run_record
-from .online import final_metrics, replay_capacity, train_policy, write_curve
+from .online import continue_run, final_metrics, replay_capacity, train_policy, write_curve
 from .shared import Progress, default_name, expert_pairs, pair_features, reference_for_env
 
 if TYPE_CHECKING:
@@ -49,7 +49,8 @@ def imitate(
     parents = [demos, embedding, disc]
     record = {**cfg.to_dict(config), "critic": cfg.to_dict(critic)}
     with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, parents), config_class=cfg.ImitationConfig) as run:
-        capacity = replay_capacity(run, info, config, feature_width=disc.config["input_dim"])
+        continue_run(run, config)
+        capacity = replay_capacity(info, config, feature_width=disc.config["input_dim"])
         torch.manual_seed(seed)  # φ's and f's initial weights (replaced by their artifacts'), then the agent's
         encoder = load_encoder(embedding, device)
         expert = pair_features(encoder, *expert_states, device)

@@ -1,7 +1,8 @@
 """An online TD3 run from its opened run folder to its results: what `expert train` and `imitate` share.
 
-A stage opens the run (``runs.open_run``), calls ``replay_capacity``, seeds torch, builds what it adds (LWAIL's
-reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets back.
+A stage opens the run (``runs.open_run``), calls ``continue_run`` and ``replay_capacity``, seeds torch, builds what
+it adds (LWAIL's reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets
+back.
 """
 
 from __future__ import annotations
@@ -37,15 +38,20 @@ class TrainedPolicy:
     reward_model: RewardModel | None
 
 
-def replay_capacity(run: Run, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, *, feature_width: int = 0) -> int:
-    """The replay buffer's capacity, once this run is known to go ahead: a resume may raise the budget, or stop at the
-    checkpoint's step, but not end before it, and the buffer must fit in memory. A resumed run's curve loses the rows
-    its killed process logged after the checkpoint. ``feature_width``: floats the reward model caches per transition."""
-    if run.resume is not None:
-        reached = run.resume["run"]["step"]
-        if reached > config.train.steps:
-            raise LwailError(f"the checkpoint of {run.kind}/{run.name} is at step {reached}: --steps must be at least {reached}")
-        run.write_log(learning_curve.FILE, run.resume["run"]["history"])
+def continue_run(run: Run, config: cfg.ExpertConfig | cfg.ImitationConfig) -> None:
+    """Where a resumed run goes on from: a resume may raise the budget, or stop at the checkpoint's step, but not end
+    before it; the curve loses the rows the killed process logged after its checkpoint. Nothing for a fresh run."""
+    if run.resume is None:
+        return
+    reached = run.resume["run"]["step"]
+    if reached > config.train.steps:
+        raise LwailError(f"the checkpoint of {run.kind}/{run.name} is at step {reached}: --steps must be at least {reached}")
+    run.write_log(learning_curve.FILE, run.resume["run"]["history"])
+
+
+def replay_capacity(info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, *, feature_width: int = 0) -> int:
+    """The replay buffer's capacity, refused up front if it would not fit in memory (``feature_width``: the floats
+    the reward model caches per transition)."""
     capacity = min(config.td3.buffer_size, config.train.steps)
     floats = 2 * info.obs_dim + info.act_dim + 2 + feature_width  # s, a, s', r, not-done (+ cached features)
     require_memory(4 * capacity * floats, f"a replay buffer of {capacity} transitions")

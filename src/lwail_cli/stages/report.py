@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
+from ..plots import plot_bands
 from .curve import curve_figures, policy_curve
 from .evaluate import normalized_evaluations
-from ..plots import plot_bands
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
