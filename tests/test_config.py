@@ -86,7 +86,7 @@ def test_every_field_has_a_doc_and_defaults_describe_it(stage):
 
 def test_the_settings_a_resume_may_change_are_declared_on_them_and_listed_in_the_resume_help():
     """The budget and how a run is watched (logged, evaluated, checkpointed), in every section; nothing that trains."""
-    from lwail_cli.cli import resume_option
+    from lwail_cli.cli.app import resume_option
 
     online = ("train.steps", "train.eval_every", "train.eval_episodes", "train.checkpoint_every", "train.average_tau")
     assert cfg.resume_may_change(cfg.ExpertConfig) == cfg.resume_may_change(cfg.ImitationConfig) == online

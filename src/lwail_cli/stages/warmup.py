@@ -12,7 +12,7 @@ from ..data import transition_pairs
 from ..discriminator import Critic, DiscriminatorTrainer
 from ..envs import require_same_env
 from ..loaders import load_dataset, load_encoder, parent, save_weights
-from .shared import Progress, default_name, expert_pairs, pair_features
+from .shared import Progress, expert_pairs, pair_features
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
