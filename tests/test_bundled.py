@@ -12,8 +12,8 @@ from lwail_cli import config as cfg
 from lwail_cli.envs import describe_env
 from lwail_cli.evaluation import d4rl_reference
 from lwail_cli.formats.npz import read_npz
-from lwail_cli.stages import demos, expert
 from lwail_cli.loaders import load_demos
+from lwail_cli.stages import demos, expert
 
 BUNDLE = resources.files("lwail_cli") / "demos"
 EXPERTS = json.loads((BUNDLE / "experts.json").read_text())
