@@ -152,7 +152,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
 
 
 def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
-    from lwail_cli.stages.curve import curve_figures
+    from lwail_cli.learning_curve import curve_figures
     from lwail_cli.stages.report import markdown, summarize
 
     # 10 evaluations of a 1,000-step run; a dip at 700 (second half) and a worse one at 300 (first half)
@@ -169,3 +169,26 @@ def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
     summary = summarize(runs)
     assert summary.loc[0, "second_half_min_mean"] == 50.0 and summary.loc[0, "seeds"] == 2
     assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in markdown(summary)
+
+
+def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tmp_path, monkeypatch):
+    import tomllib
+
+    import numpy as np
+
+    from lwail_cli.stages import demos
+    from lwail_cli.stages.sweep import bundled_demos, plan_from_dict
+
+    plan = plan_from_dict(tomllib.loads((PLANS / "smoke.toml").read_text()), "test plan")
+    first = bundled_demos(store, plan, "InvertedPendulum-v5")
+    assert bundled_demos(store, plan, "InvertedPendulum-v5").ref == first.ref  # the same bundle: taken from the ledger
+
+    with np.load(demos.bundled_demos_path("InvertedPendulum-v5")) as shipped:  # a retrained expert's bundle
+        arrays = {key: shipped[key] for key in shipped.files}
+    arrays["observations"] = arrays["observations"] + 0.5
+    retrained = tmp_path / "InvertedPendulum-v5.npz"
+    np.savez(retrained, **arrays)
+    monkeypatch.setattr(demos, "bundled_demos_path", lambda env_id: retrained)
+    second = bundled_demos(store, plan, "InvertedPendulum-v5")
+    assert second.version == first.version + 1 and second.hash != first.hash
+    assert bundled_demos(store, plan, "InvertedPendulum-v5").ref == second.ref

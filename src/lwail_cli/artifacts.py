@@ -16,15 +16,13 @@ import re
 import shutil
 import socket
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-from . import __version__
 from .envs import EnvInfo
 from .errors import LwailError
-from .manifests import KINDS, MANIFEST, SCHEMA_VERSION, content_hash, file_hash, malformed, manifest_hash, read_manifest
+from .manifests import KINDS, MANIFEST, file_hash, malformed, manifest_hash, new_manifest, read_manifest
 from .names import check_name, parse_ref
 from .run_area import RunArea, abandoned_by
 
@@ -241,22 +239,7 @@ class Store:
             if target.is_file():
                 _fsync(target)
                 file_hashes[str(target.relative_to(writer.directory))] = file_hash(target)
-        manifest = {
-            "kind": kind,
-            "schema_version": SCHEMA_VERSION,
-            "name": name,
-            "version": None,
-            "env": None if env is None else env.to_dict(),
-            "config": config,
-            "seed": seed,
-            "parents": [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents],
-            "package_version": __version__,
-            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "metrics": writer.metrics,
-            "files": file_hashes,
-            "hash": content_hash(file_hashes, None if env is None else env.to_dict(), config),
-            **extra,
-        }
+        manifest = new_manifest(kind, name, env, config, seed, parents, writer.metrics, file_hashes, extra)
         parent_dir = self.root / kind / name
         parent_dir.mkdir(parents=True, exist_ok=True)
         version = (self._versions(kind, name) or [0])[-1] + 1

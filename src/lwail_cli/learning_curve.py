@@ -5,6 +5,8 @@ code that reads it (`lwail curve`, the sweep report, the plots)."""
 
 from __future__ import annotations
 
+import pandas as pd
+
 from .config import POLICY_NETWORKS
 
 FILE = "learning_curve.csv"
@@ -25,3 +27,23 @@ WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spe
 TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
          *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
          "episodes_terminated")
+
+LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
+FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")  # curve_figures' keys
+
+
+def curve_figures(curve: pd.DataFrame, steps: int, final: float | None, column: str = "normalized_score") -> dict[str, float]:
+    """A run's figures from its learning curve: the closing evaluation (else the curve's last point), the best
+    evaluation, the mean over the last 10% of ``steps``, and the lowest evaluation after half of them (how far the
+    network still falls once it has learned: the dips a final score hides)."""
+    score, step = curve[column], curve["step"]
+    return {
+        "final": final if final is not None else float(score.iloc[-1]),
+        "best": float(score.max()),
+        "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
+        "second_half_min": float(second_half(curve, steps)[column].min()),
+    }
+
+
+def second_half(curve: pd.DataFrame, steps: int) -> pd.DataFrame:
+    return curve[curve["step"] > steps / 2]

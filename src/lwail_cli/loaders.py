@@ -1,4 +1,4 @@
-"""Artifacts into models and arrays: what the stages and the Python API (``api.py``) both load.
+"""Artifacts into models, arrays and tables: what the stages and the Python API (``api.py``) both load.
 
 Weights are safetensors files (no code runs when they are read); a model is rebuilt from the config its artifact
 records, and weights that do not fit that config are refused with one line.
@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+import pandas as pd
 import torch
 from safetensors.torch import load_file, save_file
 
@@ -20,6 +21,7 @@ from .formats.npz import read_npz
 from .discriminator import Critic
 from .errors import LwailError
 from .icvf import Encoder
+from .learning_curve import FILES as CURVE_FILES
 from .td3 import Actor
 
 if TYPE_CHECKING:
@@ -88,3 +90,45 @@ def parent(store: Store, artifact: Artifact, kind: str) -> Artifact:
     if found is None:
         raise LwailError(f"{artifact.ref} records no {kind} parent")
     return found
+
+
+def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
+    """The curve of the run named ``ref`` while it runs (or after a kill), else of the policy artifact ``ref``;
+    with a line saying which was read."""
+    for filename in CURVE_FILES:
+        try:
+            live = store.runs.run_log("policy", ref, filename)
+        except LwailError:  # not a plain name (e.g. name@v2 or a path): an artifact ref
+            break
+        if live.is_file():
+            return _read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
+    policy = store.resolve(ref, "policy")
+    curve, path = policy_curve(policy)
+    return curve, f"{policy.ref}: {path}"
+
+
+def policy_curve(policy: Artifact) -> tuple[pd.DataFrame, Path]:
+    """The learning curve a policy artifact holds, and its file."""
+    for filename in CURVE_FILES:
+        if policy.file(filename).is_file():
+            return _read_curve_file(policy.file(filename)), policy.file(filename)
+    raise LwailError(f"{policy.ref} holds no learning curve")
+
+
+def _read_curve_file(path: Path) -> pd.DataFrame:
+    try:
+        curve = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise LwailError(f"cannot read the learning curve {path}: {exc}") from None
+    if "step" not in curve or "return_mean" not in curve:
+        raise LwailError(f"{path} is not a learning curve (no step / return_mean columns)")
+    return curve
+
+
+def normalized_evaluations(policy: Artifact) -> pd.DataFrame:
+    """The rows of the policy's ``evals.csv`` that carry a normalized score, oldest first (none: empty)."""
+    if not policy.file("evals.csv").is_file():
+        return pd.DataFrame(columns=["episodes", "seed", "normalized_score"])
+    evals = pd.read_csv(policy.file("evals.csv"))
+    evals["normalized_score"] = pd.to_numeric(evals["normalized_score"], errors="coerce")
+    return evals[evals["normalized_score"].notna()]

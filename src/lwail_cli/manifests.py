@@ -9,9 +9,16 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from . import __version__
 from .errors import LwailError
+
+if TYPE_CHECKING:
+    from .artifacts import Artifact
+    from .envs import EnvInfo
 
 SCHEMA_VERSION = 2  # 2: the manifest itself is hashed, and children record their parents' manifest hashes
 KINDS = ("dataset", "demos", "embedding", "discriminator", "policy", "report")  # a report spans envs: no env
@@ -26,6 +33,28 @@ def file_hash(path: Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def new_manifest(kind: str, name: str, env: EnvInfo | None, config: dict, seed: int | None, parents: list[Artifact],
+                 metrics: dict, file_hashes: dict[str, str], extra: dict) -> dict:
+    """The record of a version about to be committed; the store fills in its version number and manifest hash."""
+    env_record = None if env is None else env.to_dict()
+    return {
+        "kind": kind,
+        "schema_version": SCHEMA_VERSION,
+        "name": name,
+        "version": None,
+        "env": env_record,
+        "config": config,
+        "seed": seed,
+        "parents": [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents],
+        "package_version": __version__,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "metrics": metrics,
+        "files": file_hashes,
+        "hash": content_hash(file_hashes, env_record, config),
+        **extra,
+    }
 
 
 def manifest_hash(manifest: dict) -> str:

@@ -12,6 +12,7 @@ import typer
 from .. import config as cfg
 from .. import learning_curve
 from ..errors import LwailError
+from ..loaders import read_curve
 from ..stages import curve as curve_stage
 from ..stages import evaluate as evaluate_stage
 from ..stages import export as export_stage
@@ -55,7 +56,7 @@ def curve(
     runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
     histories = {}
     for ref in refs:
-        history, source = curve_stage.read_curve(store(), ref=ref)
+        history, source = read_curve(store(), ref=ref)
         typer.echo(source)
         shown = history[[column for column in learning_curve.TABLE if column in history]]
         typer.echo(shown.to_string(index=False, float_format=lambda value: f"{value:.3f}"))

@@ -12,9 +12,9 @@ from ..config import RecordConfig
 from ..data import Episode, validate_episodes
 from ..envs import EnvInfo, describe_env, require_same_env
 from ..errors import LwailError
-from ..formats.npz import npz_load_bytes, write_npz
+from ..formats.npz import npz_load_bytes, read_npz, write_npz
 from ..formats.sb3_zip import read_sb3_policy
-from ..loaders import load_policy, policy_fn
+from ..loaders import load_demos, load_policy, policy_fn
 from ..rollout import rollout
 from ..video import filmed_rollout
 from .shared import default_name, read_external, require_memory
@@ -80,6 +80,15 @@ def bundled_demos_path(env_id: str) -> Path:
 
 def import_bundled_demos(store: Store, *, env_id: str, name: str | None = None) -> Artifact:
     return import_demos(store, env_id=env_id, name=name or default_name(env_id, "bundled-demos"), npz=bundled_demos_path(env_id))
+
+
+def holds_bundled_demos(artifact: Artifact) -> bool:
+    """Whether a demos artifact holds the episodes lwail bundles for its env today (bundles change when an expert is
+    retrained: an import of the old one is not them)."""
+    held, held_returns = load_demos(artifact)
+    bundled, bundled_returns = read_npz(bundled_demos_path(artifact.env.id))
+    return (len(held) == len(bundled) and np.array_equal(held_returns, bundled_returns, equal_nan=True)
+            and all(np.array_equal(a.observations, b.observations) for a, b in zip(held, bundled)))
 
 
 def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode], returns: np.ndarray, config: dict, seed, parents) -> Artifact:

@@ -4,12 +4,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import pandas as pd
-
 from ..config import EvalConfig
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
-from ..loaders import load_policy, policy_fn
+from ..loaders import load_policy, normalized_evaluations, policy_fn
 from ..rollout import rollout
 from ..video import filmed_rollout
 from .shared import lineage_demos, now, reference_for_env
@@ -17,7 +15,7 @@ from .shared import lineage_demos, now, reference_for_env
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from ..artifacts import Artifact, Store
+    from ..artifacts import Store
 
 
 def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: bool = False, demos_ref: str | None = None,
@@ -55,15 +53,6 @@ def evaluate(store: Store, *, policy_ref: str, config: EvalConfig, normalized: b
     except OSError as exc:  # e.g. a policy shared read-only: the evaluation itself still counts
         not_logged = f"{exc.strerror or exc} ({exc.filename or policy.path})"
     return result | {"videos": videos, "not_logged": not_logged}
-
-
-def normalized_evaluations(policy: Artifact) -> pd.DataFrame:
-    """The rows of the policy's ``evals.csv`` that carry a normalized score, oldest first (none: empty)."""
-    if not policy.file("evals.csv").is_file():
-        return pd.DataFrame(columns=["episodes", "seed", "normalized_score"])
-    evals = pd.read_csv(policy.file("evals.csv"))
-    evals["normalized_score"] = pd.to_numeric(evals["normalized_score"], errors="coerce")
-    return evals[evals["normalized_score"].notna()]
 
 
 def logged_normalized_evaluation(store: Store, *, policy_ref: str, config: EvalConfig) -> dict | None:

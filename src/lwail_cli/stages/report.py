@@ -10,16 +10,13 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
+from ..learning_curve import FIGURES, curve_figures
+from ..loaders import normalized_evaluations, policy_curve
 from ..plots import plot_bands
-from .curve import curve_figures, policy_curve
-from .evaluate import normalized_evaluations
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
     from .sweep import SweepPlan
-
-FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")  # curve_figures' keys
-
 
 def report(store: Store, *, plan: SweepPlan) -> Artifact:
     rows, curves, policies = [], [], []

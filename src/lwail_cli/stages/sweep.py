@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING, Callable
 from .. import config as cfg
 from ..artifacts import Store
 from ..errors import LwailError
+from ..loaders import read_curve
 from ..names import check_name
 from .chain import CHAIN, MAKES, READS, run_stage
-from .curve import read_curve
-from .demos import bundled_demos_path, import_bundled_demos
+from .demos import bundled_demos_path, holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
 
 if TYPE_CHECKING:
@@ -166,11 +166,13 @@ def _unique_list(value, kind: type) -> bool:
 
 
 # ------------------------------------------------------------------------------ one stage, once
-def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact]) -> Artifact:
-    """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents."""
+def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact],
+          still_current: Callable[[Artifact], bool] = lambda artifact: True) -> Artifact:
+    """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents
+    (and ``still_current``, for inputs the record cannot name)."""
     key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
     done = store.runs.finished_stage(plan.name, key, kind, name)
-    if done is not None:
+    if done is not None and still_current(done):
         return done
     artifact = make()
     store.runs.record_finished_stage(plan.name, key, artifact)
@@ -179,7 +181,8 @@ def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, mak
 
 def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
     name = plan.names(SweepRun(task, plan.seeds[0], plan.kinds[0]))["demos"]
-    return _once(store, plan, "demos", name, {"task": task}, lambda: import_bundled_demos(store, env_id=task, name=name))
+    return _once(store, plan, "demos", name, {"task": task}, lambda: import_bundled_demos(store, env_id=task, name=name),
+                 still_current=holds_bundled_demos)  # a new bundle is imported as a new version; its runs start over
 
 
 def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
