@@ -72,6 +72,7 @@ def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli
     assert sorted(summary["kind"]) == ["icvf", "identity"] and (summary["seeds"] == 3).all()
     runs = pd.read_csv(report.file("runs.csv"))
     assert len(runs) == 6 and runs["final"].notna().all() and (runs["env_steps"] == 600).all()
+    assert (runs["expert_return"] == 1000.0).all() and runs["final_expert_pct"].between(0, 100).all()  # the bundled 1,000
     assert report.file("curves-InvertedPendulum-v5.png").is_file()
     assert "| InvertedPendulum-v5 | icvf |" in result.output
 
@@ -163,12 +164,17 @@ def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
     assert curve_figures(curve, 1000, 97.5)["final"] == 97.5  # the closing evaluation wins over the curve's last point
 
     runs = pd.DataFrame([
-        {"task": "T", "kind": "icvf", "seed": seed, **figures, "second_half_min": low, "wall_time_s": 60.0, "env_steps_per_s": 100.0}
+        {"task": "T", "kind": "icvf", "seed": seed, **figures, "second_half_min": low,
+         **{f"{figure}_expert_pct": value / 2 for figure, value in figures.items()}, "second_half_min_expert_pct": low / 2,
+         "wall_time_s": 60.0, "env_steps_per_s": 100.0}
         for seed, low in ((0, 40.0), (1, 60.0))
     ])
     summary = summarize(runs)
     assert summary.loc[0, "second_half_min_mean"] == 50.0 and summary.loc[0, "seeds"] == 2
-    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in markdown(summary)
+    assert summary.loc[0, "second_half_min_expert_pct_mean"] == 25.0
+    normalized, in_pct = markdown(summary).split("% of the expert's return")
+    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in normalized
+    assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 25.0 ± 7.1 | 2 |" in in_pct
 
 
 def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tmp_path, monkeypatch):

@@ -1,4 +1,5 @@
-"""The versioned store: the only code that touches paths and manifests (with the run area, ``run_area.py``).
+"""The versioned store. With ``manifests.py`` (the record and its hashes), ``names.py`` (names and refs), the run
+area (``run_area.py``) and ``formats/`` (one file format each), the only code that touches paths and manifests.
 
 Layout: ``<store>/<kind>/<name>/v<N>/`` holding ``manifest.json`` and data files. A version is
 written into ``<store>/.tmp/`` and renamed into place only once every file is fsynced, so a crash
@@ -73,6 +74,11 @@ class Artifact:
     @property
     def metrics(self) -> dict:
         return self.manifest.get("metrics", {})
+
+    @property
+    def parent_kinds(self) -> list[str]:
+        """The kinds of the artifacts this one was made from, in the order its manifest lists them, each once."""
+        return list(dict.fromkeys(entry["ref"].split("/")[0] for entry in self.manifest.get("parents", [])))
 
     def file(self, name: str) -> Path:
         return self.path / name
@@ -168,7 +174,7 @@ class Store:
         for path in paths:
             try:
                 artifact = self._load(path)
-                for kind in {entry["ref"].split("/")[0] for entry in artifact.manifest.get("parents", [])}:
+                for kind in artifact.parent_kinds:
                     self.resolve_parent(artifact, kind)
                 results.append((str(path), None))
             except LwailError as exc:  # a malformed manifest included (manifests.malformed)

@@ -4,7 +4,7 @@ A run names its parts once (networks with their optimizers, a replay buffer, a r
 the environment), each with ``state_dict``/``load_state_dict``; ``capture`` adds torch's global generators and the
 run's plain values (its step, logs, wall time), ``restore`` reads the same table back, so what a checkpoint saves
 and what a resume restores cannot drift apart. Tensors and plain data only (checkpoints load with
-``weights_only=True``); storing the dict is the stage layer's part (``runs.py``).
+``weights_only=True``); storing the dict is the caller's part (``runs.py``).
 """
 
 from __future__ import annotations

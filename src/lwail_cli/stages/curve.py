@@ -1,4 +1,5 @@
-"""Stage: a run's learning curve and diagnostics — of a finished policy, or of a run still going or killed."""
+"""Stage: a run's learning curve and diagnostics drawn and summed up (read by ``loaders.read_curve``, from a finished
+policy or from a run still going or killed)."""
 
 from __future__ import annotations
 

@@ -35,7 +35,6 @@ if TYPE_CHECKING:
 class TrainedPolicy:
     state: RunState  # the history of evaluations, the best one and the wall time
     agent: TD3
-    reward_model: RewardModel | None
 
 
 def continue_run(run: Run, config: cfg.ExpertConfig | cfg.ImitationConfig) -> None:
@@ -73,7 +72,7 @@ def train_policy(
         on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
         on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
     )
-    return TrainedPolicy(state, agent, reward_model)
+    return TrainedPolicy(state, agent)
 
 
 def run_summary(run: RunState) -> dict:

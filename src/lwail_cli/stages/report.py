@@ -1,4 +1,5 @@
-"""Stage: a sweep's report — normalized score per task × embedding kind as mean ± std over seeds, with curves.
+"""Stage: a sweep's report — normalized score and % of the expert's return per task × embedding kind, as mean ± std
+over seeds, with curves.
 
 Rebuilt from the store alone (`lwail report`): each run's policy artifact holds its learning curve, its
 final evaluation (``evals.csv``), env steps and wall time."""
@@ -13,10 +14,14 @@ from ..errors import LwailError
 from ..learning_curve import FIGURES, curve_figures
 from ..loaders import normalized_evaluations, policy_curve
 from ..plots import plot_bands
+from .shared import lineage_demos
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
     from .sweep import SweepPlan
+
+EXPERT_PCT = "_expert_pct"  # the suffix of a figure given as % of the expert's return instead of normalized
+
 
 def report(store: Store, *, plan: SweepPlan) -> Artifact:
     rows, curves, policies = [], [], []
@@ -29,9 +34,14 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
         if "normalized_score" not in curve:
             raise LwailError(f"{policy.ref} has no normalized scores in its learning curve")
         steps = policy.metrics["env_steps"]
+        final = _final_evaluation(policy)
+        expert_return = _expert_return(store, policy)
+        curve["expert_pct"] = 100 * curve["return_mean"] / expert_return
+        in_pct = curve_figures(curve, steps, None if final is None else 100 * final["return_mean"] / expert_return, "expert_pct")
         rows.append({
             "task": run.task, "kind": run.kind, "seed": run.seed, "policy": policy.ref,
-            **curve_figures(curve, steps, _final_evaluation(policy)),
+            **curve_figures(curve, steps, None if final is None else final["normalized_score"]),
+            **{figure + EXPERT_PCT: value for figure, value in in_pct.items()}, "expert_return": expert_return,
             "env_steps": steps, "wall_time_s": policy.metrics["wall_time_s"],
             "env_steps_per_s": steps / policy.metrics["wall_time_s"],
         })
@@ -52,15 +62,23 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
     return writer.artifact
 
 
-def _final_evaluation(policy: Artifact) -> float | None:
-    scores = normalized_evaluations(policy)["normalized_score"]
-    return float(scores.iloc[-1]) if len(scores) else None
+def _final_evaluation(policy: Artifact) -> pd.Series | None:
+    evaluations = normalized_evaluations(policy)
+    return evaluations.iloc[-1] if len(evaluations) else None
+
+
+def _expert_return(store: Store, policy: Artifact) -> float:
+    """The mean return of the demonstrations the run imitated: "% of the expert" is the fair yardstick where the
+    D4RL reference returns come from older versions of a task (v2 where lwail runs v5)."""
+    demos = lineage_demos(store, policy)
+    expert_return = None if demos is None else demos.metrics.get("mean_return")
+    return float("nan") if expert_return is None else float(expert_return)
 
 
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """Per task × kind: mean and std over seeds of each figure, the seed count, and the mean wall time and speed."""
     grouped = runs.groupby(["task", "kind"])
-    summary = grouped[list(FIGURES)].agg(["mean", "std"])
+    summary = grouped[[*FIGURES, *(figure + EXPERT_PCT for figure in FIGURES)]].agg(["mean", "std"])
     summary.columns = [f"{figure}_{stat}" for figure, stat in summary.columns]
     summary["seeds"] = grouped["seed"].count()
     summary["wall_time_s"] = grouped["wall_time_s"].mean()
@@ -69,12 +87,17 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def markdown(summary: pd.DataFrame) -> str:
-    lines = ["| task | embedding | final | best | mean, last 10% of steps | lowest after half the steps | seeds | wall time | env-steps/s |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    for row in summary.itertuples(index=False):
-        cells = [f"{getattr(row, f + '_mean'):.1f} ± {_std(getattr(row, f + '_std'))}" for f in FIGURES]
-        lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
-    return "\n".join(lines) + "\n"
+    """Two tables: the normalized score, then the same figures as % of the expert's return."""
+    tables = []
+    for title, suffix in (("normalized score", ""), ("% of the expert's return (the demonstrations' mean)", EXPERT_PCT)):
+        lines = [f"**{title}**", "",
+                 "| task | embedding | final | best | mean, last 10% of steps | lowest after half the steps | seeds | wall time | env-steps/s |",
+                 "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for row in summary.itertuples(index=False):
+            cells = [f"{getattr(row, f + suffix + '_mean'):.1f} ± {_std(getattr(row, f + suffix + '_std'))}" for f in FIGURES]
+            lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
+        tables.append("\n".join(lines))
+    return "\n\n".join(tables) + "\n"
 
 
 def _std(value: float) -> str:

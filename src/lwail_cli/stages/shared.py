@@ -65,7 +65,7 @@ def expert_pairs(demos: Artifact, episodes_wanted: int) -> tuple[np.ndarray, np.
 # ------------------------------------------------------------------------------ lineage and references
 def lineage_demos(store: Store, artifact: Artifact) -> Artifact | None:
     """The demos an artifact was (transitively) made from, if any."""
-    for kind in dict.fromkeys(entry["ref"].split("/")[0] for entry in artifact.manifest.get("parents", [])):
+    for kind in artifact.parent_kinds:
         found = store.resolve_parent(artifact, kind)
         if kind == "demos":
             return found

@@ -4,9 +4,10 @@ A plan (TOML) names the grid and each stage's ``--set`` overrides. An entry of `
 identity) or the name of a variant, a ``[variants.NAME]`` table giving its kind and its own overrides of the
 stages after collect (an ablation such as φ without LayerNorm is one more arm of the grid). Stages that several
 runs share are made once: a task's bundled demos, and the random data set I of a task and seed (read by every
-arm of that seed). Every artifact is named after the sweep, and each finished stage is recorded in the store's ledger under a
-fingerprint of its stage, name, config, seed and parents: a restarted sweep skips what is done (its artifact
-still there and intact) and resumes a killed ``imitate`` from its checkpoint.
+arm of that seed). Every artifact is named after the sweep, and each finished stage is recorded in the sweep's ledger
+(in the run area, ``.runs/sweep/``) under a fingerprint of its stage, name, config, seed and parents: a restarted
+sweep skips what is done (its artifact still there and intact, and for bundled demos, still today's bundle) and
+resumes a killed long stage (``pretrain-icvf``, ``imitate``) from its checkpoint.
 """
 
 from __future__ import annotations
@@ -76,8 +77,8 @@ class SweepPlan:
         return cfg.with_overrides(cfg.STAGES[stage](), self.overrides.get(stage, ()), variant.get(stage, ()), fixed)
 
     def names(self, run: SweepRun) -> dict[str, str]:
-        base = f"{self.name}-{run.task.lower()}-s{run.seed}"
         """Each artifact's name, by kind."""
+        base = f"{self.name}-{run.task.lower()}-s{run.seed}"
         return {"demos": f"{self.name}-{run.task.lower()}-demos", "dataset": f"{base}-data", "embedding": f"{base}-{run.kind}",
                 "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
 

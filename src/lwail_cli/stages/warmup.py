@@ -8,6 +8,7 @@ import numpy as np
 import torch
 
 from .. import config as cfg
+from .. import learning_curve
 from ..data import transition_pairs
 from ..discriminator import Critic, DiscriminatorTrainer
 from ..envs import require_same_env
@@ -50,8 +51,8 @@ def warmup(
     with store.create("discriminator", name, env=info, config=record, seed=seed, parents=[embedding, demos, dataset]) as writer:
         save_weights(writer.path("critic.safetensors"), critic.state_dict())
         writer.metrics.update({
-            "wasserstein_estimate": float(wasserstein),
-            "reward_expert_mean": float(trainer.reward(expert).mean()),
-            "reward_random_mean": float(trainer.reward(policy).mean()),
+            learning_curve.WASSERSTEIN: float(wasserstein),
+            learning_curve.REWARD_EXPERT: float(trainer.reward(expert).mean()),
+            learning_curve.REWARD_RANDOM: float(trainer.reward(policy).mean()),
         })
     return writer.artifact
