@@ -4,17 +4,17 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import torch
-
 from .. import config as cfg
 from .. import learning_curve
 from ..envs import describe_env
 from ..loaders import save_weights
 from ..runs import open_run, run_record
-from .online import continue_run, final_metrics, replay_capacity, train_policy, write_curve
+from .online import final_metrics, start_online_run, train_policy, write_curve
 from .shared import Progress, default_name, reference_for_env
 
 if TYPE_CHECKING:
+    import torch
+
     from ..artifacts import Artifact, Store
 
 
@@ -27,9 +27,7 @@ def train_expert(
     info = describe_env(env_id)
     record = cfg.to_dict(config)
     with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, []), config_class=cfg.ExpertConfig) as run:
-        continue_run(run, config)
-        capacity = replay_capacity(info, config)
-        torch.manual_seed(seed)  # the agent's initial weights (a resume then restores every generator)
+        capacity = start_online_run(run, info, config, seed)
         trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
                                reference=reference, on_progress=on_progress)
         state = trained.state

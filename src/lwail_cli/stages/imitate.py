@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import pandas as pd
-import torch
 
 from .. import config as cfg
 from .. import learning_curve
@@ -17,10 +16,12 @@ from ..imitation import AdversarialReward
 from ..loaders import critic_config, load_critic, load_dataset, load_encoder, parent, save_weights
 from ..plots import plot_run
 from ..runs import open_run, run_record
-from .online import continue_run, final_metrics, replay_capacity, train_policy, write_curve
+from .online import final_metrics, start_online_run, train_policy, write_curve
 from .shared import Progress, default_name, expert_pairs, pair_features, reference_for_env
 
 if TYPE_CHECKING:
+    import torch
+
     from ..artifacts import Artifact, Store
 
 DIAGNOSTIC_PAIRS = 4_000  # random-policy pairs of data set I whose reward is logged at each evaluation
@@ -49,9 +50,8 @@ def imitate(
     parents = [demos, embedding, disc]
     record = {**cfg.to_dict(config), "critic": cfg.to_dict(critic)}
     with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, parents), config_class=cfg.ImitationConfig) as run:
-        continue_run(run, config)
-        capacity = replay_capacity(info, config, feature_width=disc.config["input_dim"])
-        torch.manual_seed(seed)  # φ's and f's initial weights (replaced by their artifacts'), then the agent's
+        capacity = start_online_run(run, info, config, seed, feature_width=disc.config["input_dim"])  # then φ and f (their
+        # initial weights replaced by their artifacts') draw from torch's generator before the agent does
         encoder = load_encoder(embedding, device)
         expert = pair_features(encoder, *expert_states, device)
         trainer = DiscriminatorTrainer(load_critic(disc, device), critic)

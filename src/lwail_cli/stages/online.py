@@ -1,8 +1,7 @@
 """An online TD3 run from its opened run folder to its results: what `expert train` and `imitate` share.
 
-A stage opens the run (``runs.open_run``), calls ``continue_run`` and ``replay_capacity``, seeds torch, builds what
-it adds (LWAIL's reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets
-back.
+A stage opens the run (``runs.open_run``), calls ``start_online_run`` (which seeds torch), builds what it adds
+(LWAIL's reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets back.
 """
 
 from __future__ import annotations
@@ -11,6 +10,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import pandas as pd
+import torch
 
 from .. import learning_curve
 from ..errors import LwailError
@@ -21,8 +21,6 @@ from .shared import Progress, require_memory
 
 if TYPE_CHECKING:
     from pathlib import Path
-
-    import torch
 
     from .. import config as cfg
     from ..envs import EnvInfo
@@ -35,6 +33,17 @@ if TYPE_CHECKING:
 class TrainedPolicy:
     state: RunState  # the history of evaluations, the best one and the wall time
     agent: TD3
+
+
+def start_online_run(run: Run, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, seed: int, *,
+                     feature_width: int = 0) -> int:
+    """What every online run does before it builds a network: go on from a resumed run's checkpoint, size the replay
+    buffer (returned), and seed torch, so that the networks built next start from the seed's weights whatever the
+    stage builds first (a resume then restores every generator)."""
+    continue_run(run, config)
+    capacity = replay_capacity(info, config, feature_width=feature_width)
+    torch.manual_seed(seed)
+    return capacity
 
 
 def continue_run(run: Run, config: cfg.ExpertConfig | cfg.ImitationConfig) -> None:
