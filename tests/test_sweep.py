@@ -73,7 +73,7 @@ def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli
     runs = pd.read_csv(report.file("runs.csv"))
     assert len(runs) == 6 and runs["final"].notna().all() and (runs["env_steps"] == 600).all()
     assert (runs["expert_return"] == 1000.0).all() and runs["final_expert_pct"].between(0, 100).all()  # the bundled 1,000
-    assert report.file("curves-InvertedPendulum-v5.png").is_file()
+    assert report.file("curves-InvertedPendulum-v5.png").is_file() and report.file("critic-InvertedPendulum-v5.png").is_file()
     assert "| InvertedPendulum-v5 | icvf |" in result.output
 
     # a restart after one policy was lost redoes that imitation only

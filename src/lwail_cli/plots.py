@@ -83,6 +83,33 @@ def plot_side_by_side(curves: dict[str, pd.DataFrame], path: Path) -> None:
     plt.close(fig)
 
 
+def plot_critic_by_kind(curves: pd.DataFrame, path: Path, title: str) -> None:
+    """One panel per embedding kind: what the critic says (σ(−f) on expert, latest policy and random pairs, mean over
+    seeds) against env steps. A policy's reward that stays well below the expert's is a gap f still sees; one that
+    reaches it while the return does not is a critic that no longer tells them apart."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = sorted(curves["kind"].unique())
+    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 3.8), sharey=True, squeeze=False)
+    for ax, kind in zip(axes[0], kinds):
+        group = curves[curves["kind"] == kind]
+        for column, legend in REWARDS.items():
+            if column in group and group[column].notna().any():
+                means = group.groupby("step")[column].mean()
+                ax.plot(means.index, means, label=legend)
+        ax.set(title=f"{kind} (n={group['seed'].nunique()})", xlabel="environment steps", ylim=(0, 1))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0, 0].set(ylabel="reward σ(−f)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
     """Mean ± std over seeds of the normalized score against env steps, one band per embedding kind."""
     import matplotlib

@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
-from ..learning_curve import FIGURES, curve_figures
+from ..learning_curve import FIGURES, REWARDS, curve_figures
 from ..loaders import normalized_evaluations, policy_curve
-from ..plots import plot_bands
+from ..plots import plot_bands, plot_critic_by_kind
 from .shared import lineage_demos
 
 if TYPE_CHECKING:
@@ -45,7 +45,8 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
             "env_steps": steps, "wall_time_s": policy.metrics["wall_time_s"],
             "env_steps_per_s": steps / policy.metrics["wall_time_s"],
         })
-        curves.append(curve[["step", "normalized_score"]].assign(task=run.task, kind=run.kind, seed=run.seed))
+        logged = ["step", "normalized_score", *(column for column in REWARDS if column in curve)]
+        curves.append(curve[logged].assign(task=run.task, kind=run.kind, seed=run.seed))
         policies.append(policy)
     if not rows:
         raise LwailError(f"no run of sweep {plan.name} has finished yet")
@@ -58,6 +59,8 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
         all_curves = pd.concat(curves)
         for task, group in all_curves.groupby("task"):
             plot_bands(group, writer.path(f"curves-{task}.png"), f"{task}: normalized score, mean ± std over seeds")
+            if any(column in group for column in REWARDS):
+                plot_critic_by_kind(group, writer.path(f"critic-{task}.png"), f"{task}: what the critic f says")
         writer.metrics.update({"runs": len(runs), "runs_planned": len(plan.runs)})
     return writer.artifact
 
