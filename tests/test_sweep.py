@@ -198,3 +198,18 @@ def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tm
     second = bundled_demos(store, plan, "InvertedPendulum-v5")
     assert second.version == first.version + 1 and second.hash != first.hash
     assert bundled_demos(store, plan, "InvertedPendulum-v5").ref == second.ref
+
+
+def test_a_queued_run_with_a_checkpoint_says_how_far_its_imitation_got(store):
+    import tomllib
+
+    from lwail_cli.stages.sweep import _live_status, plan_from_dict
+
+    plan = plan_from_dict(tomllib.loads((PLANS / "smoke.toml").read_text()), "test plan")
+    run, other = plan.runs[0], plan.runs[1]
+    name = plan.names(run)["policy"]
+    store.runs.save_checkpoint("policy", name, {"step": 50})  # as a killed sweep leaves it
+    assert _live_status(store, plan, run) == "queued, its imitation checkpointed"
+    store.runs.write_run_log("policy", name, "learning_curve.csv", [{"step": 40, "return_mean": 1.0}, {"step": 60, "return_mean": 2.0}])
+    assert _live_status(store, plan, run) == "queued, its imitation checkpointed (curve to step 60)"
+    assert _live_status(store, plan, other) is None  # no checkpoint: plainly queued

@@ -31,6 +31,8 @@ from .demos import bundled_demos_path, holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from ..artifacts import Artifact
 
 PLAN_STAGES = (*CHAIN, "eval")
@@ -282,18 +284,26 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
 
 
 def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
-    """What a run does now, as its Ray task last said (None before it starts: queued); while it imitates, with the
-    step and latest normalized score of its curve."""
+    """What a run does now, as its Ray task last said (None before it starts: queued; or, when a killed sweep left its
+    imitation checkpointed, queued with how far that got); while it imitates, with the step and latest normalized
+    score of its curve."""
     name = plan.names(run)["policy"]
     line = store.runs.sweep_status(plan.name, name)
+    if line is None and store.runs.has_checkpoint("policy", name):
+        last = _last_evaluation(store, name)
+        return "queued, its imitation checkpointed" + ("" if last is None else f" (curve to step {int(last['step'])})")
     if line != IMITATING:
         return line
+    last = _last_evaluation(store, name)
+    if last is None:
+        return f"{IMITATING}: before the first evaluation"
+    score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in last else ""
+    return f"{IMITATING}: step {int(last['step'])}{score}"
+
+
+def _last_evaluation(store: Store, name: str) -> pd.Series | None:
     try:
         curve, _ = read_curve(store, ref=name)
     except LwailError:  # no evaluation yet
-        curve = None
-    if curve is None or curve.empty:
-        return f"{IMITATING}: before the first evaluation"
-    last = curve.iloc[-1]
-    score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in curve else ""
-    return f"{IMITATING}: step {int(last['step'])}{score}"
+        return None
+    return None if curve.empty else curve.iloc[-1]
