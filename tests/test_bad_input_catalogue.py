@@ -263,7 +263,8 @@ LEDGERED = {"demos": ("ip", "ip2"), "dataset": ("data", "data2"), "embedding": (
 def _ledger_case(kind: str, damage: Callable[[Context, Path], None]) -> Callable[[Context], str]:
     """A sweep's ledger entry for a finished stage, damaged: the documented meaning is that the stage runs again."""
     def check(ctx: Context) -> bool:
-        from lwail_cli.stages.sweep import _once, plan_from_dict
+        from lwail_cli.stages.sweep import _once
+        from lwail_cli.stages.sweep_plan import plan_from_dict
 
         plan = plan_from_dict({"name": "sw", "tasks": [ENV], "seeds": [0]}, "test plan")
         name = LEDGERED[kind][0]

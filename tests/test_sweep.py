@@ -91,7 +91,7 @@ def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli
 
 @pytest.mark.parametrize("plan", sorted(PLANS.glob("*.toml")), ids=lambda path: path.name)
 def test_the_shipped_plans_are_valid(plan):
-    from lwail_cli.stages.sweep import read_plan
+    from lwail_cli.stages.sweep_plan import read_plan
 
     assert read_plan(plan).runs  # every task has bundled demos, every override is a valid setting
 
@@ -102,7 +102,8 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     import torch
 
     from lwail_cli.stages import sweep
-    from lwail_cli.stages.sweep import _live_status, bundled_demos, collect_task, plan_from_dict, run_task
+    from lwail_cli.stages.sweep import _live_status, bundled_demos, collect_task, run_task
+    from lwail_cli.stages.sweep_plan import plan_from_dict
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
     raw.update(name="ab", seeds=[0], embeddings=["icvf", "plain-phi"],
@@ -183,7 +184,8 @@ def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tm
     import numpy as np
 
     from lwail_cli.stages import demos
-    from lwail_cli.stages.sweep import bundled_demos, plan_from_dict
+    from lwail_cli.stages.sweep import bundled_demos
+    from lwail_cli.stages.sweep_plan import plan_from_dict
 
     plan = plan_from_dict(tomllib.loads((PLANS / "smoke.toml").read_text()), "test plan")
     first = bundled_demos(store, plan, "InvertedPendulum-v5")
@@ -203,7 +205,8 @@ def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tm
 def test_a_queued_run_with_a_checkpoint_says_how_far_its_imitation_got(store):
     import tomllib
 
-    from lwail_cli.stages.sweep import _live_status, plan_from_dict
+    from lwail_cli.stages.sweep import _live_status
+    from lwail_cli.stages.sweep_plan import plan_from_dict
 
     plan = plan_from_dict(tomllib.loads((PLANS / "smoke.toml").read_text()), "test plan")
     run, other = plan.runs[0], plan.runs[1]

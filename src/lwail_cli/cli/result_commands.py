@@ -19,6 +19,7 @@ from ..stages import export as export_stage
 from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import sweep as sweep_stage
+from ..stages.sweep_plan import plan_from_dict, read_plan
 from ..stages.shared import resolve_device
 from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store
 
@@ -93,7 +94,7 @@ def sweep(
     address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
 ) -> None:
     """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
-    plan = sweep_stage.read_plan(plan_file)
+    plan = read_plan(plan_file)
     s = store()
     typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs into store {s.root.resolve()}")
 
@@ -112,9 +113,9 @@ def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name o
     """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
     s = store()
     if Path(sweep_ref).is_file():
-        plan = sweep_stage.read_plan(Path(sweep_ref))
+        plan = read_plan(Path(sweep_ref))
     else:
-        plan = sweep_stage.plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")
+        plan = plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")
     _say_report(report_stage.report(s, plan=plan))
 
 

@@ -1,6 +1,7 @@
 """The chain of LWAIL's stages, each run on the artifacts made before it: what `quickstart` and `sweep` both run.
 
-With ``stages/quickstart.py`` and ``stages/sweep.py`` (its only users), the one module that imports other stages.
+With ``stages/quickstart.py`` and ``stages/sweep.py`` (and its plan, ``sweep_plan.py``), its only users, the one module
+that imports other stages.
 """
 
 from __future__ import annotations

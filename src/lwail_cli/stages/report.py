@@ -18,7 +18,7 @@ from .shared import lineage_demos
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
-    from .sweep import SweepPlan
+    from .sweep_plan import SweepPlan
 
 EXPERT_PCT = "_expert_pct"  # the suffix of a figure given as % of the expert's return instead of normalized
 
