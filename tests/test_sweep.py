@@ -176,6 +176,8 @@ def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
     normalized, in_pct = markdown(summary).split("% of the expert's return")
     assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in normalized
     assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 25.0 ± 7.1 | 2 |" in in_pct
+    no_returns = summarize(runs.assign(**{f"{figure}_expert_pct": float("nan") for figure in figures}))
+    assert "| T | icvf | — | — | — | — | 2 |" in markdown(no_returns).split("% of the expert's return")[1]  # demos without returns
 
 
 def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tmp_path, monkeypatch):

@@ -97,10 +97,15 @@ def markdown(summary: pd.DataFrame) -> str:
                  "| task | embedding | final | best | mean, last 10% of steps | lowest after half the steps | seeds | wall time | env-steps/s |",
                  "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for row in summary.itertuples(index=False):
-            cells = [f"{getattr(row, f + suffix + '_mean'):.1f} ± {_std(getattr(row, f + suffix + '_std'))}" for f in FIGURES]
+            cells = [_cell(getattr(row, f + suffix + "_mean"), getattr(row, f + suffix + "_std")) for f in FIGURES]
             lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
         tables.append("\n".join(lines))
     return "\n\n".join(tables) + "\n"
+
+
+def _cell(mean: float, std: float) -> str:
+    """``mean ± std``; a dash where there is no figure (demonstrations imported without returns have no % of expert)."""
+    return "—" if pd.isna(mean) else f"{mean:.1f} ± {_std(std)}"
 
 
 def _std(value: float) -> str:
