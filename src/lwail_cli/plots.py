@@ -10,6 +10,22 @@ from .config import POLICY_NETWORKS
 from .learning_curve import PSEUDO_REWARD, REWARDS
 
 
+def _pyplot():
+    """matplotlib's pyplot on the file-only Agg backend (no display needed), imported only when a figure is drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    _pyplot().close(fig)
+
+
 def score_column(history: pd.DataFrame) -> str:
     if "normalized_score" in history and history["normalized_score"].notna().any():
         return "normalized_score"
@@ -18,11 +34,7 @@ def score_column(history: pd.DataFrame) -> str:
 
 def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None, title: str) -> None:
     """The score against env steps above the critic's rewards; and, when asked, pseudo-reward vs true return."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     score = score_column(history)
     rewards = [column for column in REWARDS if column in history]
     fig, axes = plt.subplots(2 if rewards else 1, 1, figsize=(7, 6 if rewards else 4), sharex=True, squeeze=False)
@@ -43,9 +55,7 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
         bottom.legend(fontsize=8)
         bottom.grid(alpha=0.3)
     axes[-1, 0].set(xlabel="environment steps")
-    fig.tight_layout()
-    fig.savefig(curve_path, dpi=100)
-    plt.close(fig)
+    _save(fig, curve_path)
     if scatter_path is None or PSEUDO_REWARD not in history:
         return
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -53,19 +63,13 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     fig.colorbar(points, label="environment steps")
     ax.set(xlabel="mean pseudo-reward σ(−f) of recent transitions", ylabel="true return", title="pseudo-reward vs true return")
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(scatter_path, dpi=100)
-    plt.close(fig)
+    _save(fig, scatter_path)
 
 
 def plot_side_by_side(curves: dict[str, pd.DataFrame], path: Path) -> None:
     """One panel per run (e.g. the experts of several tasks): the true return of the kept network and of each other
     network logged, with a cross at every evaluation where an episode of the kept network ended early (a fall)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     fig, axes = plt.subplots(1, len(curves), figsize=(5 * len(curves), 3.8), squeeze=False)
     for ax, (title, history) in zip(axes[0], curves.items()):
         ax.plot(history["step"], history["return_mean"], marker="o", markersize=2, label="kept network")
@@ -78,20 +82,14 @@ def plot_side_by_side(curves: dict[str, pd.DataFrame], path: Path) -> None:
         ax.set(title=title, xlabel="environment steps", ylabel="true return (mean of the evaluation episodes)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def plot_critic_by_kind(curves: pd.DataFrame, path: Path, title: str) -> None:
     """One panel per embedding kind: what the critic says (σ(−f) on expert, latest policy and random pairs, mean over
     seeds) against env steps. A policy's reward that stays well below the expert's is a gap f still sees; one that
     reaches it while the return does not is a critic that no longer tells them apart."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     kinds = sorted(curves["kind"].unique())
     fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 3.8), sharey=True, squeeze=False)
     for ax, kind in zip(axes[0], kinds):
@@ -105,18 +103,12 @@ def plot_critic_by_kind(curves: pd.DataFrame, path: Path, title: str) -> None:
         ax.legend(fontsize=7)
     axes[0, 0].set(ylabel="reward σ(−f)")
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
     """Mean ± std over seeds of the normalized score against env steps, one band per embedding kind."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     for kind, group in curves.groupby("kind"):
         stats = group.groupby("step")["normalized_score"].agg(["mean", "std", "count"]).fillna({"std": 0.0})
@@ -125,6 +117,4 @@ def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
     ax.set(xlabel="environment steps", ylabel="normalized score", title=title)
     ax.legend()
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
