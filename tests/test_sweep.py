@@ -153,7 +153,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert again == results["icvf"] and evals.read_text() == rows
 
 
-def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
+def test_a_runs_figures_include_the_mean_and_the_lowest_evaluation_after_half_the_steps():
     from lwail_cli.learning_curve import curve_figures
     from lwail_cli.stages.report import markdown, summarize
 
@@ -161,7 +161,8 @@ def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
     scores = [5.0, 20.0, 10.0, 60.0, 80.0, 90.0, 40.0, 95.0, 100.0, 98.0]
     curve = pd.DataFrame({"step": range(100, 1001, 100), "normalized_score": scores})
     figures = curve_figures(curve, 1000, None)
-    assert figures == {"final": 98.0, "best": 100.0, "last_10pct_mean": 98.0, "second_half_min": 40.0}
+    assert figures == {"final": 98.0, "best": 100.0, "last_10pct_mean": 98.0, "second_half_mean": 84.6,
+                       "second_half_min": 40.0}
     assert curve_figures(curve, 1000, 97.5)["final"] == 97.5  # the closing evaluation wins over the curve's last point
 
     runs = pd.DataFrame([
@@ -174,10 +175,10 @@ def test_a_runs_figures_include_the_lowest_evaluation_after_half_the_steps():
     assert summary.loc[0, "second_half_min_mean"] == 50.0 and summary.loc[0, "seeds"] == 2
     assert summary.loc[0, "second_half_min_expert_pct_mean"] == 25.0
     normalized, in_pct = markdown(summary).split("% of the expert's return")
-    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 50.0 ± 14.1 | 2 |" in normalized
-    assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 25.0 ± 7.1 | 2 |" in in_pct
+    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 84.6 ± 0.0 | 50.0 ± 14.1 | 2 |" in normalized
+    assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 42.3 ± 0.0 | 25.0 ± 7.1 | 2 |" in in_pct
     no_returns = summarize(runs.assign(**{f"{figure}_expert_pct": float("nan") for figure in figures}))
-    assert "| T | icvf | — | — | — | — | 2 |" in markdown(no_returns).split("% of the expert's return")[1]  # demos without returns
+    assert "| T | icvf | — | — | — | — | — | 2 |" in markdown(no_returns).split("% of the expert's return")[1]  # demos without returns
 
 
 def test_a_restarted_sweep_imports_a_retrained_bundle_as_a_new_version(store, tmp_path, monkeypatch):

@@ -29,19 +29,22 @@ TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
          "episodes_terminated")
 
 LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
-FIGURES = ("final", "best", "last_10pct_mean", "second_half_min")  # curve_figures' keys
+FIGURES = ("final", "best", "last_10pct_mean", "second_half_mean", "second_half_min")  # curve_figures' keys
 
 
 def curve_figures(curve: pd.DataFrame, steps: int, final: float | None, column: str = "normalized_score") -> dict[str, float]:
     """A run's figures from its learning curve: the closing evaluation (else the curve's last point), the best
-    evaluation, the mean over the last 10% of ``steps``, and the lowest evaluation after half of them (how far the
-    network still falls once it has learned: the dips a final score hides)."""
+    evaluation, the mean over the last 10% of ``steps``, and the mean and the lowest of the evaluations after half
+    of them (the mean is what decides the default φ, docs/algorithm.md; the lowest is how far the network still
+    falls once it has learned: the dips a final score hides)."""
     score, step = curve[column], curve["step"]
+    later = second_half(curve, steps)[column]
     return {
         "final": final if final is not None else float(score.iloc[-1]),
         "best": float(score.max()),
         "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
-        "second_half_min": float(second_half(curve, steps)[column].min()),
+        "second_half_mean": float(later.mean()),
+        "second_half_min": float(later.min()),
     }
 
 

@@ -38,7 +38,7 @@ def summary_lines(curve: pd.DataFrame) -> list[str]:
         lowest_at = int(later.loc[later[column].idxmin(), "step"])
         lines.append(
             f"{label}, {column} over {steps} steps: last {figures['final']:.1f} · best {figures['best']:.1f} · "
-            f"mean of the last 10% {figures['last_10pct_mean']:.1f} · lowest after half the steps "
-            f"{figures['second_half_min']:.1f} (step {lowest_at})"
+            f"mean of the last 10% {figures['last_10pct_mean']:.1f} · after half the steps: mean "
+            f"{figures['second_half_mean']:.1f}, lowest {figures['second_half_min']:.1f} (step {lowest_at})"
         )
     return lines

@@ -94,8 +94,8 @@ def markdown(summary: pd.DataFrame) -> str:
     tables = []
     for title, suffix in (("normalized score", ""), ("% of the expert's return (the demonstrations' mean)", EXPERT_PCT)):
         lines = [f"**{title}**", "",
-                 "| task | embedding | final | best | mean, last 10% of steps | lowest after half the steps | seeds | wall time | env-steps/s |",
-                 "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+                 "| task | embedding | final | best | mean, last 10% of steps | mean after half the steps | lowest after half the steps | seeds | wall time | env-steps/s |",
+                 "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for row in summary.itertuples(index=False):
             cells = [_cell(getattr(row, f + suffix + "_mean"), getattr(row, f + suffix + "_std")) for f in FIGURES]
             lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
