@@ -40,7 +40,7 @@ MAX_SEED = 2**32 - 1
 SEED = typer.Option(0, "--seed", help=f"Random seed (0 to {MAX_SEED}).", min=0, max=MAX_SEED)
 NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
 DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
-VIDEO = typer.Option(None, "--video", help="Write an MP4 of each episode into this folder (headless; needs lwail[video]).")
+VIDEO = typer.Option(None, "--video", help='Write an MP4 of each episode into this folder (headless; needs: pip install "lwail\\[video]").')
 
 
 def resume_option(config_class: type, run: str) -> typer.Option:

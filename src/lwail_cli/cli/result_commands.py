@@ -90,7 +90,7 @@ def quickstart(
 
 @command(app, "sweep")
 def sweep(
-    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings, \\[set] overrides per stage and \\[variants.NAME] arms; see plans/."),
     address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
 ) -> None:
     """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""

@@ -40,7 +40,7 @@ def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.
 
 
 @command(app, "verify")
-def verify(ref: Optional[str] = typer.Argument(None, help="kind/name[@vN] or a path (default: every artifact in the store).")) -> None:
+def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a path (default: every artifact in the store).")) -> None:
     """Re-hash every file and manifest of one artifact, or of the whole store; exit 1 if anything is damaged."""
     results = store().verify(ref)
     for path, problem in results:
