@@ -55,6 +55,17 @@ def test_goal_sampler_respects_trajectories_and_rewards():
     current = GoalSampler(episodes, cfg.ICVFConfig(p_goal_current=1.0, p_goal_trajectory=0.0), torch.device("cpu")).sample(64)
     assert torch.all(current["intention_reward"] == 0) and torch.all(current["intention_mask"] == 0)
     assert torch.equal(current["intention"], current["s"])
+    # observations (episode, time) name their row: a trajectory goal is a later state of s's own episode
+    labelled = [Episode(observations=np.stack([np.full(n + 1, e), np.arange(n + 1)], axis=1).astype(np.float32))
+                for e, n in enumerate((3, 7, 12))]
+    torch.manual_seed(0)
+    batch = GoalSampler(labelled, cfg.ICVFConfig(p_goal_current=0.0, p_goal_trajectory=1.0), torch.device("cpu")).sample(512)
+    s, next_s, intention = batch["s"], batch["next_s"], batch["intention"]
+    assert torch.equal(next_s, s + torch.tensor([0.0, 1.0]))  # s' is the next state of the same episode
+    assert torch.equal(intention[:, 0], s[:, 0]) and torch.all(intention[:, 1] > s[:, 1])
+    lengths = torch.tensor([3.0, 7.0, 12.0])[s[:, 0].long()]
+    assert torch.all(s[:, 1] < lengths) and torch.all(intention[:, 1] <= lengths)  # never past the episode's last state
+    assert set(s[:, 0].tolist()) == {0.0, 1.0, 2.0} and torch.any(intention[:, 1] > s[:, 1] + 1)  # goals beyond s'
 
 
 def test_gradient_penalty_of_a_linear_critic_is_known():
@@ -357,6 +368,10 @@ def test_evals_csv_keeps_one_set_of_columns_whether_or_not_normalized(store):
     evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=1), normalized=True)
     rows = pd.read_csv(policy.path / "evals.csv")
     assert len(rows) == 2 and rows["normalized_score"].isna().tolist() == [True, False]
+    header, *lines = (policy.path / "evals.csv").read_text().splitlines()
+    assert len(lines) == 2 and all(line.count(",") == header.count(",") for line in lines)  # one header fits both rows
+    assert {"return_mean", "normalized_score", "reference"} <= set(header.split(","))
+    assert rows["return_mean"].iloc[0] == rows["return_mean"].iloc[1] and rows["reference"].isna().tolist() == [True, False]
 
 
 def test_evaluating_a_read_only_policy_still_reports_its_score(cli, store, monkeypatch):
@@ -367,10 +382,15 @@ def test_evaluating_a_read_only_policy_still_reports_its_score(cli, store, monke
     def read_only(self, filename, row):
         raise PermissionError(13, "Permission denied", str(self.path / filename))
 
-    monkeypatch.setattr(Artifact, "append_log", read_only)
-    result = cli("eval", policy.ref, "--episodes", "1")
+    with monkeypatch.context() as patch:
+        patch.setattr(Artifact, "append_log", read_only)
+        result = cli("eval", policy.ref, "--episodes", "1")
     assert result.exit_code == 0 and "return" in result.output
     assert "warning: not appended to evals.csv: Permission denied" in result.output
+    assert not (policy.path / "evals.csv").exists()
+    # the same evaluation of a writable policy: the score reported is the one it gives
+    expected = evaluate.evaluate(store, policy_ref=policy.ref, config=cfg.EvalConfig(episodes=1))
+    assert f"{policy.ref}: return {expected['return_mean']:.1f} ± 0.0 over 1 episodes" in result.output.splitlines()
 
 
 def test_a_replay_buffer_that_cannot_fit_is_refused_before_anything_runs(cli, store, monkeypatch):

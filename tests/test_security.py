@@ -3,6 +3,7 @@
 import json
 import os
 
+import numpy as np
 import pytest
 import torch
 
@@ -45,6 +46,7 @@ def test_manifest_paths_and_module_env_ids_are_refused(cli, store, tmp_path):
     _tamper(artifact, lambda m: m["files"].update({"../../../../etc/hostname": "0" * 64}))
     result = cli("show", "demos/d")
     assert result.exit_code == 1 and "outside its artifact" in result.output
+    assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
     def forge(m):  # a careful forger recomputes both hashes
         m["files"].pop("../../../../etc/hostname")
         m["env"]["id"] = "os:system"
@@ -60,13 +62,16 @@ def test_minari_ids_stay_inside_the_local_store(cli, store, tmp_path):
     for dataset_id in ("../elsewhere/data-v0", str(tmp_path / "abs-v0")):
         result = cli("demos", "import", "InvertedPendulum-v5", "--from-minari", dataset_id)
         assert result.exit_code == 1 and "inside the local Minari store" in result.output, result.output
+        assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
+        assert committed_versions(store) == []
 
 
 def test_any_edit_of_a_manifest_is_detected_and_a_damaged_store_still_lists(cli, store, tmp_path):
     write_states_npz(tmp_path / "d.npz", episodes=2, obs_dim=4, returns=[1.0, 2.0])
     for name in ("d", "e"):
         assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", name).exit_code == 0
-    assert cli("verify").exit_code == 0
+    intact = cli("verify")
+    assert intact.exit_code == 0 and intact.output.count("ok ") == 2 and "2 artifact versions checked, 0 damaged" in intact.output
     _tamper(store.resolve("d", "demos"), lambda m: m["metrics"].update(mean_return=9999.0))  # a flattering reference
     assert cli("show", "demos/d").exit_code == 1
     assert "manifest hash does not match" in cli("show", "demos/d").output
@@ -90,8 +95,11 @@ def test_a_parent_changed_after_its_child_was_made_is_refused(cli, store, tmp_pa
         m["manifest_hash"] = manifest_hash(m)
 
     _tamper(data, rename)
+    before = committed_versions(store)
     result = cli("warmup-disc", "ident", "d", "--set", "steps=2")
     assert result.exit_code == 1 and "was changed after embedding/ident@v1 was made from it" in result.output
+    assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
+    assert committed_versions(store) == before  # no discriminator written
 
 
 def test_a_minari_env_spec_never_runs(cli, store, tmp_path, monkeypatch):
@@ -100,7 +108,8 @@ def test_a_minari_env_spec_never_runs(cli, store, tmp_path, monkeypatch):
     from lwail_cli.stages.collect import collect
     import shutil
 
-    source = collect(store, env_id="InvertedPendulum-v5", config=CollectConfig(transitions=60), seed=0).file("minari")
+    collected = collect(store, env_id="InvertedPendulum-v5", config=CollectConfig(transitions=60), seed=0)
+    source = collected.file("minari")
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     data = tmp_path / "minari" / "evil" / "random-v0" / "data"
     shutil.copytree(source, data)
@@ -117,3 +126,10 @@ def test_a_minari_env_spec_never_runs(cli, store, tmp_path, monkeypatch):
         assert result.exit_code == 0, result.output
     assert cli("pretrain-icvf", "imported", "--kind", "identity").exit_code == 0  # reads the dataset artifact back
     assert not marker.exists()
+    from lwail_cli import load_episodes
+
+    expected = load_episodes(collected.ref, store=store.root)
+    for kind in ("demos", "dataset"):  # both imports hold the dataset's states, read with spaces lwail built itself
+        imported = load_episodes(f"{kind}/imported", store=store.root)
+        assert np.array_equal(imported["observations"], expected["observations"])
+        assert np.array_equal(imported["episode_ends"], expected["episode_ends"])

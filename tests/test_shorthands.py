@@ -82,9 +82,13 @@ def test_a_flag_of_another_section_is_no_conflict(configured):
 
 
 def test_help_shows_each_flag_with_its_key_and_the_settings_default(cli):
-    shown = " ".join(cli("imitate", "--help").output.split())
+    result = cli("imitate", "--help")
+    assert result.exit_code == 0, result.output
+    shown = " ".join(result.output.replace("│", " ").split())
     for key, default in (("train.steps", 1_000_000), ("train.eval_every", 10_000), ("expert_episodes", 1)):
-        assert f"--set {key}:" in shown and f"[default: {default}]" in shown
+        assert shown.count(f"--set {key}:") == 1, shown
+        entry = shown.split(f"--set {key}:")[1].split(" --")[0]  # this flag's own help, up to the next option
+        assert entry.strip().endswith(f"[default: {default}]"), entry
 
 
 # ------------------------------------------------------------------------------ the learning curve's file
@@ -98,9 +102,13 @@ def test_a_curve_written_under_the_old_name_is_still_read(cli, store):
     killed = cli("curve", "killed", "--out", store.root / "killed.png")
     assert killed.exit_code == 0, killed.output
     assert "training.csv" in killed.output and "kept network, return_mean over 1000 steps: last 20.0" in killed.output
+    assert f"wrote {store.root / 'killed.png'}" in killed.output
+    assert (store.root / "killed.png").read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
 
     with store.create("policy", "old", env=describe_env(ENV), config={}, seed=0) as writer:
         pd.DataFrame(ROWS).to_csv(writer.path("training.csv"), index=False)
     finished = cli("curve", "old", "--out", store.root / "old.png")
     assert finished.exit_code == 0, finished.output
     assert finished.output.startswith("policy/old@v1: ") and "training.csv" in finished.output
+    assert "kept network, return_mean over 1000 steps: last 20.0" in finished.output  # the old file's rows, read
+    assert (store.root / "old.png").read_bytes().startswith(b"\x89PNG\r\n\x1a\n")

@@ -34,7 +34,10 @@ def test_pretraining_logs_its_loss(cli, store, tmp_path):
     write_states_npz(tmp_path / "d.npz", episodes=6, obs_dim=4)
     assert cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "d.npz", "--name", "data").exit_code == 0
     result = cli("--tensorboard", tmp_path / "tb", "pretrain-icvf", "data", "--set", "icvf.steps=20", "--set", "icvf.log_every=10",
-                 "--set", "icvf.hidden=(16,)", "--set", "icvf.embedding_dim=8")
+                 "--set", "icvf.hidden=(16,)", "--set", "icvf.embedding_dim=8", "--name", "e")
     assert result.exit_code == 0, result.output
     scalars, _ = _scalars(tmp_path / "tb")
     assert [step for step, _ in scalars["loss"]][-1] == 20
+    logged = pd.read_csv(store.resolve("e", "embedding").file("loss.csv"))  # each row of loss.csv, the same loss
+    assert [step for step, _ in scalars["loss"]] == logged["step"].tolist() == [10, 20]
+    assert [value for _, value in scalars["loss"]] == pytest.approx(logged["loss"].tolist(), rel=1e-6)

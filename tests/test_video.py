@@ -2,6 +2,7 @@
 
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import committed_versions
@@ -30,10 +31,19 @@ def test_eval_writes_one_playable_mp4_per_episode_named_by_its_return(cli, store
 
 
 def test_expert_record_films_the_episodes_it_records(cli, store, policy, tmp_path):
-    pytest.importorskip("imageio")
+    imageio = pytest.importorskip("imageio.v2")
     result = cli("expert", "record", policy, "--episodes", "2", "--name", "d", "--video", tmp_path / "videos")
     assert result.exit_code == 0, result.output
     assert len(list((tmp_path / "videos").glob("p-v1-seed*-return*.mp4"))) == 2
+    recorded = store.resolve("d", "demos")
+    assert recorded.metrics["episodes"] == 2
+    with np.load(recorded.file("demos.npz")) as arrays:
+        lengths = np.diff(np.concatenate([[-1], np.flatnonzero(arrays["episode_ends"])])).tolist()  # observations per episode
+        returns = arrays["returns"].tolist()
+    videos = sorted((tmp_path / "videos").glob("*.mp4"), key=lambda v: int(v.name.split("-seed")[1].split("-")[0]))
+    # the episodes filmed are the ones recorded: one video per recorded episode, named by its return, one frame per state
+    assert [v.name for v in videos] == [f"p-v1-seed{s}-return{r:.0f}.mp4" for s, r in zip((0, 1), returns)]
+    assert [len(imageio.mimread(v)) for v in videos] == lengths
 
 
 def test_missing_video_support_is_one_clear_line(cli, store, policy, tmp_path, monkeypatch):
@@ -42,8 +52,11 @@ def test_missing_video_support_is_one_clear_line(cli, store, policy, tmp_path, m
         patch.setitem(sys.modules, "imageio.v2", None)
         result = cli("eval", policy, "--video", tmp_path / "v")
     assert result.exit_code == 1 and 'pip install "lwail[video]"' in result.output
+    assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
+    assert committed_versions(store) == before
     pytest.importorskip("imageio")
     monkeypatch.setenv("MUJOCO_GL", "no-such-backend")
     result = cli("eval", policy, "--video", tmp_path / "v")
     assert result.exit_code == 1 and "cannot render InvertedPendulum-v5 headless with MUJOCO_GL=no-such-backend" in result.output
     assert "Traceback" not in result.output and committed_versions(store) == before
+    assert result.output.strip().count("\n") == 0, result.output
