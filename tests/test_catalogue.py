@@ -3,6 +3,7 @@ with each kind of bad value its type admits (not a number, NaN, infinite, below 
 a zero or unreadable width). Each must be one line naming the field, exit 1, no traceback, and an unchanged store."""
 
 import dataclasses
+import re
 import typing
 
 import pytest
@@ -72,4 +73,5 @@ def test_a_bad_value_is_one_line_naming_its_field(cli, store, command, assignmen
     assert result.exit_code == 1, result.output
     assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
     assert key.split(".")[-1] in result.output, result.output
+    assert re.search(rf"(^|[ .']){re.escape(key)}\b", result.output), result.output  # the field by its whole key, not a namesake
     assert committed_versions(store) == [] and not (store.root / ".runs").exists()

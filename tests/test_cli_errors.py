@@ -76,6 +76,8 @@ def test_a_npy_for_a_npz_and_a_store_that_is_a_file_are_one_line(cli, store, see
     monkeypatch.setenv("LWAIL_STORE", str(tmp_path / "file"))
     result = cli("demos", "import", "InvertedPendulum-v5", "--bundled")
     assert result.exit_code == 1 and "Not a directory" in result.output and "Traceback" not in result.output
+    assert result.output.strip().count("\n") == 0, result.output
+    assert (tmp_path / "file").read_text() == ""  # the file standing where the store goes is left as it was
 
 
 def test_nan_and_empty_data_files_are_refused(cli, store, seeded, tmp_path):

@@ -1,4 +1,5 @@
 import dataclasses
+import json
 
 import pytest
 
@@ -82,6 +83,13 @@ def test_every_field_has_a_doc_and_defaults_describe_it(stage):
         assert "\n" not in f.metadata["doc"]
     described = cfg.describe(config_type())
     assert all(f"{f.name} = " in described for _, f in _fields(config_type))
+    lines = [line.strip() for line in described.splitlines()]
+    for owner, f in _fields(config_type):  # a line `name = default  # doc` of this field: its own default and doc
+        default = getattr(owner(), f.name)
+        expected = list(default) if isinstance(default, tuple) else default
+        assert any(line.startswith(f"{f.name} = ") and line.endswith(f"  # {f.metadata['doc']}")
+                   and json.loads(line[len(f"{f.name} = "):-len(f"  # {f.metadata['doc']}")]) == expected for line in lines), \
+            f"{owner.__name__}.{f.name}: no line '{f.name} = {default!r}  # ...' in\n{described}"
 
 
 def test_the_settings_a_resume_may_change_are_declared_on_them_and_listed_in_the_resume_help():

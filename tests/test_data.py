@@ -51,6 +51,19 @@ def test_pairs_never_cross_episode_boundaries():
     assert flat.has_successor.sum() == 300
     first_of_second = episodes[1].observations[0]
     assert not any(np.allclose(s, first_of_second) for s in successors[: episodes[0].length])
+    # pair k is (s_t, s_t+1) of one episode: each episode's pairs in order, none from its last state or to a first one
+    assert len(episodes) > 2 and states.shape == successors.shape == (300, 11)
+    start = 0
+    for episode in episodes:
+        observations = episode.observations.astype(np.float32)
+        assert np.array_equal(states[start : start + episode.length], observations[:-1])
+        assert np.array_equal(successors[start : start + episode.length], observations[1:])
+        start += episode.length
+    firsts = np.stack([episode.observations[0] for episode in episodes]).astype(np.float32)
+    assert not (successors[:, None, :] == firsts[None, :, :]).all(axis=2).any()
+    ends = np.cumsum([len(episode.observations) for episode in episodes]) - 1
+    assert np.flatnonzero(~flat.has_successor).tolist() == ends.tolist()
+    assert np.array_equal(flat.observations[flat.has_successor], states)
 
 
 def test_npz_round_trip_keeps_episodes_terminations_and_returns(tmp_path):

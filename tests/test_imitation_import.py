@@ -96,6 +96,7 @@ def test_a_bad_imitation_input_is_one_clear_line(cli, store, tmp_path, make, mes
     path = made if hasattr(made, "exists") else next(p for p in tmp_path.iterdir() if p.name != "store")
     result = cli("demos", "import", ENV, "--from-imitation", path)
     assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output, result.output
+    assert result.output.strip().count("\n") == 0, result.output
     assert store.list() == []
 
 
@@ -107,3 +108,5 @@ def test_without_pyarrow_a_folder_says_how_to_install_it(cli, store, tmp_path, m
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     result = cli("demos", "import", ENV, "--from-imitation", tmp_path / "expert")
     assert result.exit_code == 1 and 'pip install "lwail[imitation]"' in result.output, result.output
+    assert "Traceback" not in result.output and result.output.strip().count("\n") == 0, result.output
+    assert store.list() == []

@@ -33,3 +33,6 @@ def test_the_online_run_does_not_replay_data_set_one_of_its_seed(store):
     online = buffer.storage["observations"][:steps].numpy()
     collected = np.concatenate([episode.observations[:-1] for episode in dataset])[:steps]
     assert online.shape == collected.shape and not np.allclose(online[0], collected[0])
+    # not one state in common (a reused reset or action stream would repeat data set I's states exactly)
+    distances = np.abs(online[:, None, :] - collected[None, :, :]).max(axis=2)
+    assert distances.min() > 1e-6, distances.min()

@@ -60,6 +60,11 @@ def test_replay_buffer_wraps_and_reports_recent_rows():
     assert buffer.rows_since(4).tolist() == [4, 0, 1]
     assert buffer.storage["not_terminated"][1, 0] == 0.0
     assert buffer.sample(16)["observations"].shape == (16, 2)
+    batch = buffer.sample(64)  # rows of one stored transition each, only from the 5 held (k = 2..6)
+    k = batch["rewards"][:, 0]
+    assert set(k.tolist()) <= {2.0, 3.0, 4.0, 5.0, 6.0} and len(set(k.tolist())) > 1
+    assert torch.equal(batch["observations"], k[:, None].expand(64, 2)) and torch.equal(batch["next_observations"], k[:, None].expand(64, 2) + 1)
+    assert torch.equal(batch["not_terminated"][:, 0], (k != 6).float())
 
 
 @pytest.mark.slow
