@@ -153,6 +153,12 @@ def tensorboard_writer(description: str):
     return SummaryWriter(log_dir=str(Path(_state["tensorboard"]) / f"{run}-{time.strftime('%Y%m%d-%H%M%S')}"))
 
 
+def refuse_unread_settings(config, seed: int, *, settings: str, reader: str) -> None:
+    """An import reads a file as it is: a setting or seed given beside it would do nothing, so it is refused, not ignored."""
+    if config != type(config)() or seed != SEED.default:
+        raise LwailError(f"{settings} and --seed are for {reader}; an import takes the file as it is")
+
+
 def say_written(artifact) -> None:
     typer.echo(f"wrote {artifact.ref}  ({artifact.path})")
     if artifact.metrics:

@@ -17,7 +17,7 @@ from ..stages import expert as expert_stage
 from ..stages import imitate as imitate_stage
 from ..stages import warmup as warmup_stage
 from ..stages.shared import resolve_device
-from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, resume_option, say_written, store
+from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, refuse_unread_settings, resume_option, say_written, store
 
 
 # ------------------------------------------------------------------------------ data
@@ -35,6 +35,7 @@ def collect(
     if from_minari and from_file:
         raise LwailError("give one source: --from-minari or --from-file (neither: collect from a random policy)")
     if from_minari or from_file:
+        refuse_unread_settings(config, seed, settings="--transitions", reader="collecting from a random policy")
         artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
     else:
         with progress_bar(f"collect {env_id}", config.transitions) as report:
@@ -92,6 +93,8 @@ def demos_import(
     rollouts (--episodes of them), or the bundled set."""
     if sum(map(bool, (bundled, from_sb3, from_minari, from_file, from_imitation))) > 1:
         raise LwailError("give one source: --bundled, --from-sb3, --from-minari, --from-file or --from-imitation")
+    if from_sb3 is None:
+        refuse_unread_settings(config, seed, settings="--episodes", reader="--from-sb3 (a rollout)")
     if bundled:
         say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
     elif from_sb3 is not None:
