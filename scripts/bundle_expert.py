@@ -1,6 +1,7 @@
 """Maintainers: ship demos recorded from an lwail expert with the package.
 
     python scripts/bundle_expert.py DEMOS_REF [--store DIR]
+    python scripts/bundle_expert.py --cut BUNDLED_ENV --for ENV
 
 copies the demos artifact's ``demos.npz`` (state-only, compressed float32) to ``src/lwail_cli/demos/<ENV>.npz``
 and writes the env's entry in ``experts.json`` from the demos' and the expert's manifests: mean return,
@@ -8,18 +9,27 @@ D4RL-normalized score, training steps, wall time, the evaluation whose actor was
 continues training, and what a user's run may draw: how many episodes ran to the time limit and the lowest
 return against the mean (a one-trajectory run imitates the first episode, so every episode should be an
 expert's). The demos must come from ``lwail expert record`` of an ``lwail expert train`` policy.
+
+``--cut`` ships a bundled env's episodes for an env that observes a prefix of what it observes (the same task,
+e.g. AntNoContactForces-v5 of Ant-v5): each observation keeps its first entries, after a random rollout of both
+envs has shown the prefix is the whole of the other's observation and the rewards are the same.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import shutil
 from pathlib import Path
 
+import numpy as np
+
 from lwail_cli import config as cfg
 from lwail_cli.artifacts import Store
+from lwail_cli.envs import make_env
 from lwail_cli.evaluation import d4rl_reference
+from lwail_cli.formats.npz import read_npz, write_npz
 from lwail_cli.loaders import load_demos, parent
 
 BUNDLE = Path(__file__).resolve().parents[1] / "src" / "lwail_cli" / "demos"
@@ -56,19 +66,50 @@ def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
     return env_id, demos.file("demos.npz"), entry
 
 
+def observed_prefix(source_env: str, target_env: str, steps: int = 300, seed: int = 0) -> int:
+    """How many leading entries of ``source_env``'s observation ``target_env`` observes, checked on a random rollout
+    of both (same seed, same actions): the rest of each observation, the rewards and the ends must agree."""
+    source, target = make_env(source_env), make_env(target_env)
+    kept = target.observation_space.shape[0]
+    observations = [source.reset(seed=seed)[0], target.reset(seed=seed)[0]]
+    actions = np.random.default_rng(seed).uniform(source.action_space.low, source.action_space.high, (steps, *source.action_space.shape))
+    for action in actions:
+        if not np.array_equal(observations[0][:kept], observations[1]):
+            raise SystemExit(f"{target_env} does not observe the first {kept} entries of {source_env}'s observation")
+        (observation, reward, terminated, truncated, _), (cut, cut_reward, cut_terminated, cut_truncated, _) = source.step(action), target.step(action)
+        if (reward, terminated, truncated) != (cut_reward, cut_terminated, cut_truncated):
+            raise SystemExit(f"{target_env} and {source_env} differ in reward or episode ends: not the same task")
+        observations = [observation, cut]
+        if terminated or truncated:
+            break
+    return kept
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("demos_ref")
+    parser.add_argument("demos_ref", nargs="?")
     parser.add_argument("--store", default=None)
+    parser.add_argument("--cut", metavar="BUNDLED_ENV", help="ship this bundled env's episodes for --for ENV")
+    parser.add_argument("--for", dest="target_env", metavar="ENV")
     args = parser.parse_args()
-    store = Store(args.store)
-    problems = [problem for _, problem in store.verify(store.resolve(args.demos_ref, "demos").ref) if problem]
-    if problems:
-        raise SystemExit("; ".join(problems))
-    env_id, npz, entry = expert_entry(store, args.demos_ref)
-    shutil.copyfile(npz, BUNDLE / f"{env_id}.npz")
     experts_file = BUNDLE / "experts.json"
     experts = json.loads(experts_file.read_text())
+    if args.cut:
+        if args.demos_ref or not args.target_env:
+            raise SystemExit("--cut BUNDLED_ENV needs --for ENV and no DEMOS_REF")
+        env_id, kept = args.target_env, observed_prefix(args.cut, args.target_env)
+        episodes, returns = read_npz(BUNDLE / f"{args.cut}.npz")
+        episodes = [dataclasses.replace(episode, observations=episode.observations[:, :kept]) for episode in episodes]
+        write_npz(BUNDLE / f"{env_id}.npz", episodes, returns)
+        entry = {**experts[args.cut], "obs_dim": kept}
+        entry["expert"] = f"the {args.cut} bundle's episodes, each observation cut to its first {kept} entries (all {env_id} observes): {entry['expert']}"
+    else:
+        store = Store(args.store)
+        problems = [problem for _, problem in store.verify(store.resolve(args.demos_ref, "demos").ref) if problem]
+        if problems:
+            raise SystemExit("; ".join(problems))
+        env_id, npz, entry = expert_entry(store, args.demos_ref)
+        shutil.copyfile(npz, BUNDLE / f"{env_id}.npz")
     experts[env_id] = entry
     experts_file.write_text(json.dumps(experts, indent=2) + "\n")
     print(f"bundled {env_id}: {(BUNDLE / f'{env_id}.npz').stat().st_size / 1e3:.0f} kB, {json.dumps(entry)}")

@@ -41,7 +41,8 @@ def test_bundled_demos_import_and_match_their_expert(store, env_id):
 
 # issue 22's targets for the 1M-step experts: a mean return near TD3's published 1M-step results, and every bundled
 # episode an expert's (a one-trajectory run imitates the first one): none ended by a fall, none below 80% of the mean
-TARGETS = [pytest.param("Walker2d-v5", 4_000), pytest.param("Ant-v5", 3_500), pytest.param("HalfCheetah-v5", 9_000)]
+TARGETS = [pytest.param("Walker2d-v5", 4_000), pytest.param("Ant-v5", 3_500), pytest.param("AntNoContactForces-v5", 3_500),
+           pytest.param("HalfCheetah-v5", 9_000)]
 
 
 @pytest.mark.parametrize(("env_id", "target"), TARGETS)
@@ -68,3 +69,16 @@ def test_a_bundle_entry_says_which_evaluation_was_kept_and_what_a_run_may_draw(s
     assert entry["complete_episodes"] == sum(not e.terminated for e in episodes) < 4  # a barely trained pendulum falls
     assert entry["lowest_return"] == returns.min() and entry["lowest_to_mean"] == pytest.approx(returns.min() / returns.mean())
     assert policy.metrics["kept_because"] in entry["expert"] and f"at step {policy.metrics['actor'].split()[-1]}" in entry["expert"]
+
+
+def test_the_ant_bundle_without_contact_forces_is_ant_v5s_cut_to_what_that_env_observes():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from scripts.bundle_expert import observed_prefix
+
+    assert observed_prefix("Ant-v5", "AntNoContactForces-v5") == 27  # the same task: rewards and ends agree
+    with pytest.raises(SystemExit, match="does not observe the first 17 entries"):
+        observed_prefix("Walker2d-v5", "HalfCheetah-v5")
+    (full, full_returns), (cut, cut_returns) = (read_npz(demos.bundled_demos_path(env)) for env in ("Ant-v5", "AntNoContactForces-v5"))
+    assert np.array_equal(full_returns, cut_returns) and len(full) == len(cut) == 10
+    assert all(np.array_equal(a.observations[:, :27], b.observations) and a.terminated == b.terminated for a, b in zip(full, cut))
+    assert EXPERTS["AntNoContactForces-v5"]["obs_dim"] == 27 and EXPERTS["Ant-v5"]["obs_dim"] == 105

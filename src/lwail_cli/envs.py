@@ -10,6 +10,14 @@ import numpy as np
 
 from .errors import LwailError
 
+# Ant-v5 observing only its 27 positions and velocities: the same task and reward, without the 78 contact forces that
+# Ant-v5 appends to them. The authors' networks saw no more: D4RL's Ant data comes from mujoco-py 2, whose contact
+# forces are 0 in every row, so their Ant φ (JackyYang258/LWAIL icvf_model/ant.pt) has those 84 inputs untrained.
+ANT_WITHOUT_CONTACT_FORCES = "AntNoContactForces-v5"
+if ANT_WITHOUT_CONTACT_FORCES not in gym.registry:
+    gym.register(ANT_WITHOUT_CONTACT_FORCES, entry_point="gymnasium.envs.mujoco.ant_v5:AntEnv", max_episode_steps=1000,
+                 kwargs={"include_cfrc_ext_in_observation": False})
+
 
 @dataclass(frozen=True)
 class EnvInfo:

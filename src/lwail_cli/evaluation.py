@@ -24,6 +24,7 @@ _D4RL_FAMILY = {
     "HalfCheetah": "halfcheetah",
     "Walker2d": "walker2d",
     "Ant": "ant",
+    "AntNoContactForces": "ant",
     "PointMaze_UMaze": "maze2d-umaze",
     "PointMaze_Medium": "maze2d-medium",
     "PointMaze_Large": "maze2d-large",
