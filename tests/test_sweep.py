@@ -141,7 +141,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
     store.runs.set_sweep_status(plan.name, plan.names(plan.runs[1])["policy"], "imitating")  # as a run that imitates says
-    assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600, normalized score ")
+    assert _live_status(store, plan, plan.runs[1]).startswith("imitating: step 600 of 600, normalized score ")
 
     # a restart takes every finished stage from the ledger, the closing evaluation included
     evals = policies["icvf"].file("evals.csv")
@@ -219,3 +219,24 @@ def test_a_queued_run_with_a_checkpoint_says_how_far_its_imitation_got(store):
     store.runs.write_run_log("policy", name, "learning_curve.csv", [{"step": 40, "return_mean": 1.0}, {"step": 60, "return_mean": 2.0}])
     assert _live_status(store, plan, run) == "queued, its imitation checkpointed (curve to step 60)"
     assert _live_status(store, plan, other) is None  # no checkpoint: plainly queued
+
+
+def test_an_imitating_run_says_its_pace_and_the_time_left(store):
+    import tomllib
+
+    from lwail_cli.stages.sweep import _live_status
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    raw = tomllib.loads((PLANS / "smoke.toml").read_text())
+    raw["set"]["imitate"] = ["train.steps=1000000"]
+    plan = plan_from_dict(raw, "test plan")
+    run = plan.runs[0]
+    name = plan.names(run)["policy"]
+    store.runs.set_sweep_status(plan.name, name, "imitating")
+    rows = [{"step": 10_000, "wall_time": 50.0, "return_mean": 30.0, "normalized_score": 3.0}]
+    store.runs.write_run_log("policy", name, "learning_curve.csv", rows)
+    assert _live_status(store, plan, run) == "imitating: step 10000 of 1000000, normalized score 3.0"  # no pace from one evaluation
+    rows += [{"step": 10_000 * i, "wall_time": 50.0 + 100.0 * (i - 1), "return_mean": 10.0 * i, "normalized_score": float(i)} for i in range(2, 11)]
+    store.runs.write_run_log("policy", name, "learning_curve.csv", rows)
+    # the last 6 evaluations: 50k steps in 500 s, 100 env-steps/s; 900k steps to go take 2.5 h
+    assert _live_status(store, plan, run) == "imitating: step 100000 of 1000000, normalized score 10.0, 100 env-steps/s, ~2.5 h to go"

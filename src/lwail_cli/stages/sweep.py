@@ -160,16 +160,38 @@ def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
         return "queued, its imitation checkpointed" + ("" if last is None else f" (curve to step {int(last['step'])})")
     if line != IMITATING:
         return line
-    last = _last_evaluation(store, name)
-    if last is None:
+    curve = _curve(store, name)
+    if curve is None:
         return f"{IMITATING}: before the first evaluation"
+    last, total = curve.iloc[-1], plan.config("imitate", run.kind).train.steps
     score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in last else ""
-    return f"{IMITATING}: step {int(last['step'])}{score}"
+    return f"{IMITATING}: step {int(last['step'])} of {total}{score}{_pace(curve, total)}"
+
+
+PACE_EVALUATIONS = 6  # the pace of a run is read over its last evaluations: recent enough to follow what shares its cores
+
+
+def _pace(curve: pd.DataFrame, total: int) -> str:
+    """Env steps per second over the last evaluations and the time left at that pace; nothing until there are two."""
+    recent = curve.tail(PACE_EVALUATIONS)
+    if "wall_time" not in recent or len(recent) < 2:
+        return ""
+    steps = float(recent["step"].iloc[-1] - recent["step"].iloc[0])
+    seconds = float(recent["wall_time"].iloc[-1] - recent["wall_time"].iloc[0])
+    if steps <= 0 or seconds <= 0:
+        return ""
+    rate = steps / seconds
+    return f", {rate:.0f} env-steps/s, ~{max(total - recent['step'].iloc[-1], 0) / rate / 3600:.1f} h to go"
 
 
 def _last_evaluation(store: Store, name: str) -> pd.Series | None:
+    curve = _curve(store, name)
+    return None if curve is None else curve.iloc[-1]
+
+
+def _curve(store: Store, name: str) -> pd.DataFrame | None:
     try:
         curve, _ = read_curve(store, ref=name)
     except LwailError:  # no evaluation yet
         return None
-    return None if curve.empty else curve.iloc[-1]
+    return None if curve.empty else curve
