@@ -166,17 +166,24 @@ def test_a_runs_figures_include_the_mean_and_the_lowest_evaluation_after_half_th
     assert curve_figures(curve, 1000, 97.5)["final"] == 97.5  # the closing evaluation wins over the curve's last point
 
     runs = pd.DataFrame([
-        {"task": "T", "kind": "icvf", "seed": seed, **figures, "second_half_min": low,
+        {"task": task, "kind": kind, "embedding": embedding, "seed": seed, **figures, "second_half_min": low,
          **{f"{figure}_expert_pct": value / 2 for figure, value in figures.items()}, "second_half_min_expert_pct": low / 2,
          "wall_time_s": 60.0, "env_steps_per_s": 100.0}
+        for task, kind, embedding in (("T", "icvf", "icvf"), ("Walker2d-v5", "icvf-authors", "icvf"), ("Walker2d-v5", "identity", "identity"))
         for seed, low in ((0, 40.0), (1, 60.0))
     ])
-    summary = summarize(runs)
-    assert summary.loc[0, "second_half_min_mean"] == 50.0 and summary.loc[0, "seeds"] == 2
-    assert summary.loc[0, "second_half_min_expert_pct_mean"] == 25.0
-    normalized, in_pct = markdown(summary).split("% of the expert's return")
-    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 84.6 ± 0.0 | 50.0 ± 14.1 | 2 |" in normalized
-    assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 42.3 ± 0.0 | 25.0 ± 7.1 | 2 |" in in_pct
+    summary = summarize(runs).set_index(["task", "kind"])
+    assert summary.loc[("T", "icvf"), "second_half_min_mean"] == 50.0 and summary.loc[("T", "icvf"), "seeds"] == 2
+    assert summary.loc[("T", "icvf"), "second_half_min_expert_pct_mean"] == 25.0
+    normalized, in_pct = markdown(summary.reset_index()).split("% of the expert's return")
+    assert "| T | icvf | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 84.6 ± 0.0 | 50.0 ± 14.1 | 2 | 1.0 min | 100 | — |" in normalized
+    from lwail_cli.evaluation import paper_score
+
+    assert paper_score("AntNoContactForces-v5", "identity") == (40.72, 18.95) and paper_score("InvertedPendulum-v5", "icvf") is None
+    # the paper's figure by the arm's embedding kind: a variant of icvf is compared with the paper's LWAIL
+    assert "| Walker2d-v5 | icvf-authors | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 84.6 ± 0.0 | 50.0 ± 14.1 | 2 | 1.0 min | 100 | 106.5 ± 1.1 |" in normalized
+    assert normalized.rstrip().endswith("| Walker2d-v5 | identity | 98.0 ± 0.0 | 100.0 ± 0.0 | 98.0 ± 0.0 | 84.6 ± 0.0 | 50.0 ± 14.1 | 2 | 1.0 min | 100 | 62.4 ± 20.4 |\n\n**")
+    assert "| T | icvf | 49.0 ± 0.0 | 50.0 ± 0.0 | 49.0 ± 0.0 | 42.3 ± 0.0 | 25.0 ± 7.1 | 2 | 1.0 min | 100 |\n" in in_pct
     no_returns = summarize(runs.assign(**{f"{figure}_expert_pct": float("nan") for figure in figures}))
     assert "| T | icvf | — | — | — | — | — | 2 |" in markdown(no_returns).split("% of the expert's return")[1]  # demos without returns
 

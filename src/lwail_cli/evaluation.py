@@ -31,6 +31,16 @@ _D4RL_FAMILY = {
 }
 
 
+# The paper's results from ONE expert trajectory, 1M steps, normalized, mean and std over its seeds, by D4RL family and
+# embedding kind (lwail-paper.tex, the table "Ablation of different embedding methods": rows LWAIL and No Embedding).
+PAPER_ONE_TRAJECTORY: dict[str, dict[str, tuple[float, float]]] = {
+    "hopper": {"icvf": (108.84, 0.79), "identity": (108.34, 3.42)},
+    "halfcheetah": {"icvf": (90.40, 3.71), "identity": (85.98, 3.42)},
+    "walker2d": {"icvf": (106.51, 1.14), "identity": (62.39, 20.43)},
+    "ant": {"icvf": (90.53, 3.26), "identity": (40.72, 18.95)},
+}
+
+
 @dataclass(frozen=True)
 class Reference:
     random_return: float
@@ -41,8 +51,17 @@ class Reference:
         return 100.0 * (episode_return - self.random_return) / (self.expert_return - self.random_return)
 
 
+def paper_score(env_id: str, embedding: str) -> tuple[float, float] | None:
+    """The paper's (mean, std) for this task and embedding kind (icvf or identity), or None where it reports none."""
+    return PAPER_ONE_TRAJECTORY.get(_d4rl_family(env_id), {}).get(embedding)
+
+
+def _d4rl_family(env_id: str) -> str | None:
+    return _D4RL_FAMILY.get(env_id.split("-v")[0])
+
+
 def d4rl_reference(env_id: str) -> Reference | None:
-    family = _D4RL_FAMILY.get(env_id.split("-v")[0])
+    family = _d4rl_family(env_id)
     if family is None:
         return None
     low, high = D4RL_REFERENCES[family]

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import LwailError
+from ..evaluation import paper_score
 from ..learning_curve import FIGURES, REWARDS, curve_figures
 from ..loaders import normalized_evaluations, policy_curve
 from ..plots import plot_bands, plot_critic_by_kind
@@ -39,7 +40,7 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
         curve["expert_pct"] = 100 * curve["return_mean"] / expert_return
         in_pct = curve_figures(curve, steps, None if final is None else 100 * final["return_mean"] / expert_return, "expert_pct")
         rows.append({
-            "task": run.task, "kind": run.kind, "seed": run.seed, "policy": policy.ref,
+            "task": run.task, "kind": run.kind, "embedding": plan.embedding_kind(run.kind), "seed": run.seed, "policy": policy.ref,
             **curve_figures(curve, steps, None if final is None else final["normalized_score"]),
             **{figure + EXPERT_PCT: value for figure, value in in_pct.items()}, "expert_return": expert_return,
             "env_steps": steps, "wall_time_s": policy.metrics["wall_time_s"],
@@ -79,26 +80,34 @@ def _expert_return(store: Store, policy: Artifact) -> float:
 
 
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per task × kind: mean and std over seeds of each figure, the seed count, and the mean wall time and speed."""
+    """Per task × kind: mean and std over seeds of each figure, the seed count, the mean wall time and speed, and the
+    paper's figure for the task and embedding kind where it reports one."""
     grouped = runs.groupby(["task", "kind"])
     summary = grouped[[*FIGURES, *(figure + EXPERT_PCT for figure in FIGURES)]].agg(["mean", "std"])
     summary.columns = [f"{figure}_{stat}" for figure, stat in summary.columns]
     summary["seeds"] = grouped["seed"].count()
     summary["wall_time_s"] = grouped["wall_time_s"].mean()
     summary["env_steps_per_s"] = grouped["env_steps_per_s"].mean()
-    return summary.reset_index()
+    summary = summary.reset_index()
+    paper = [paper_score(task, embedding) or (float("nan"), float("nan"))
+             for task, embedding in zip(summary["task"], grouped["embedding"].first().to_numpy())]
+    summary["paper_mean"], summary["paper_std"] = [mean for mean, _ in paper], [std for _, std in paper]
+    return summary
 
 
 def markdown(summary: pd.DataFrame) -> str:
-    """Two tables: the normalized score, then the same figures as % of the expert's return."""
+    """Two tables: the normalized score, with the paper's figure beside it, then the same figures as % of the expert's
+    return."""
     tables = []
     for title, suffix in (("normalized score", ""), ("% of the expert's return (the demonstrations' mean)", EXPERT_PCT)):
+        paper = " paper: 1 trajectory, 1M steps |" if not suffix else ""
         lines = [f"**{title}**", "",
-                 "| task | embedding | final | best | mean, last 10% of steps | mean after half the steps | lowest after half the steps | seeds | wall time | env-steps/s |",
-                 "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+                 "| task | embedding | final | best | mean, last 10% of steps | mean after half the steps | lowest after half the steps | seeds | wall time | env-steps/s |" + paper,
+                 "| --- " * (10 + bool(paper)) + "|"]
         for row in summary.itertuples(index=False):
             cells = [_cell(getattr(row, f + suffix + "_mean"), getattr(row, f + suffix + "_std")) for f in FIGURES]
-            lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |")
+            paper_cell = f" {_cell(row.paper_mean, row.paper_std)} |" if paper else ""
+            lines.append(f"| {row.task} | {row.kind} | {' | '.join(cells)} | {row.seeds} | {row.wall_time_s / 60:.1f} min | {row.env_steps_per_s:.0f} |{paper_cell}")
         tables.append("\n".join(lines))
     return "\n\n".join(tables) + "\n"
 
