@@ -71,17 +71,23 @@ def observed_prefix(source_env: str, target_env: str, steps: int = 300, seed: in
     of both (same seed, same actions): the rest of each observation, the rewards and the ends must agree."""
     source, target = make_env(source_env), make_env(target_env)
     kept = target.observation_space.shape[0]
-    observations = [source.reset(seed=seed)[0], target.reset(seed=seed)[0]]
+    not_a_prefix = f"{target_env} does not observe the first {kept} entries of {source_env}'s observation"
     actions = np.random.default_rng(seed).uniform(source.action_space.low, source.action_space.high, (steps, *source.action_space.shape))
-    for action in actions:
-        if not np.array_equal(observations[0][:kept], observations[1]):
-            raise SystemExit(f"{target_env} does not observe the first {kept} entries of {source_env}'s observation")
-        (observation, reward, terminated, truncated, _), (cut, cut_reward, cut_terminated, cut_truncated, _) = source.step(action), target.step(action)
-        if (reward, terminated, truncated) != (cut_reward, cut_terminated, cut_truncated):
-            raise SystemExit(f"{target_env} and {source_env} differ in reward or episode ends: not the same task")
-        observations = [observation, cut]
-        if terminated or truncated:
-            break
+    try:
+        full, cut = source.reset(seed=seed)[0], target.reset(seed=seed)[0]
+        for action in actions:
+            if not np.array_equal(full[:kept], cut):
+                raise SystemExit(not_a_prefix)
+            (full, reward, *ends, _), (cut, cut_reward, *cut_ends, _) = source.step(action), target.step(action)
+            if (reward, *ends) != (cut_reward, *cut_ends):
+                raise SystemExit(f"{target_env} and {source_env} differ in reward or episode ends: not the same task")
+            if any(ends):
+                break
+        if not np.array_equal(full[:kept], cut):
+            raise SystemExit(not_a_prefix)
+    finally:
+        source.close()
+        target.close()
     return kept
 
 
