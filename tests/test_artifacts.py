@@ -83,14 +83,14 @@ def test_the_run_area_keeps_the_layout_that_runs_in_flight_wrote(store):
     artifact = write(store)
     store.runs.save_checkpoint("policy", "run", {"step": 5, "record": {"seed": 0}})
     store.runs.write_run_log("policy", "run", "learning_curve.csv", [{"step": 1, "return": 2.5}, {"step": 2, "score": 1}])
-    store.runs.record_finished_stage("sw", "0123abcd", artifact)
+    store.runs.record_finished_stage("sw", "0123abcd", artifact.ref)
     store.runs.set_sweep_status("sw", "run", "imitating")
     runs = store.root / ".runs"
     assert sorted(str(path.relative_to(runs)) for path in runs.rglob("*") if path.is_file()) == [
         "policy/run/checkpoint.pt", "policy/run/learning_curve.csv", "sweep/sw/0123abcd.ref", "sweep/sw/run.status"]
     assert (runs / "policy/run/learning_curve.csv").read_bytes() == b"step,return,score\r\n1,2.5,\r\n2,,1\r\n"
     assert (runs / "sweep/sw/0123abcd.ref").read_text() == "embedding/demo@v1"
-    assert store.runs.finished_stage("sw", "0123abcd", "embedding", "demo") == artifact
+    assert store.finished_stage("sw", "0123abcd", "embedding", "demo") == artifact
     assert store.runs.sweep_status("sw", "run") == "imitating"
 
 

@@ -113,7 +113,7 @@ class Store:
     def __init__(self, root: Path | str | None = None):
         # absolute, because libraries we hand paths to (Minari) mis-join relative ones
         self.root = (Path(root) if root is not None else default_store()).absolute()
-        self.runs = RunArea(self)
+        self.runs = RunArea(self.root)
 
     # ---------------------------------------------------------------- reading
     def resolve(self, ref: str, kind: str) -> Artifact:
@@ -142,6 +142,17 @@ class Store:
         if artifact.kind != kind:
             raise LwailError(f"{ref!r} is a {artifact.kind} artifact, but a {kind} is needed here")
         return artifact
+
+    def finished_stage(self, sweep: str, key: str, kind: str, name: str) -> Artifact | None:
+        """The artifact ``kind/name`` a sweep recorded for a stage fingerprint, if it is still there and intact; None
+        otherwise (removed, damaged, or an entry naming anything else), so the stage runs again."""
+        recorded = self.runs.finished_stage_ref(sweep, key, kind, name)
+        if recorded is None:
+            return None
+        try:
+            return self.resolve(recorded, kind)
+        except LwailError:
+            return None
 
     def resolve_any(self, ref: str) -> Artifact:
         """``kind/name[@vN]`` or an artifact path, whatever its kind."""
@@ -245,7 +256,8 @@ class Store:
             if target.is_file():
                 _fsync(target)
                 file_hashes[str(target.relative_to(writer.directory))] = file_hash(target)
-        manifest = new_manifest(kind, name, env, config, seed, parents, writer.metrics, file_hashes, extra)
+        lineage = [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents]
+        manifest = new_manifest(kind, name, env, config, seed, lineage, writer.metrics, file_hashes, extra)
         parent_dir = self.root / kind / name
         parent_dir.mkdir(parents=True, exist_ok=True)
         version = (self._versions(kind, name) or [0])[-1] + 1

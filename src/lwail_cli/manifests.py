@@ -17,7 +17,6 @@ from . import __version__
 from .errors import LwailError
 
 if TYPE_CHECKING:
-    from .artifacts import Artifact
     from .envs import EnvInfo
 
 SCHEMA_VERSION = 2  # 2: the manifest itself is hashed, and children record their parents' manifest hashes
@@ -35,7 +34,7 @@ def file_hash(path: Path) -> str:
     return digest.hexdigest()
 
 
-def new_manifest(kind: str, name: str, env: EnvInfo | None, config: dict, seed: int | None, parents: list[Artifact],
+def new_manifest(kind: str, name: str, env: EnvInfo | None, config: dict, seed: int | None, parents: list[dict],
                  metrics: dict, file_hashes: dict[str, str], extra: dict) -> dict:
     """The record of a version about to be committed; the store fills in its version number and manifest hash."""
     env_record = None if env is None else env.to_dict()
@@ -47,7 +46,7 @@ def new_manifest(kind: str, name: str, env: EnvInfo | None, config: dict, seed: 
         "env": env_record,
         "config": config,
         "seed": seed,
-        "parents": [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents],
+        "parents": parents,
         "package_version": __version__,
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "metrics": metrics,

@@ -16,19 +16,16 @@ import re
 import shutil
 import socket
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Iterator
+from typing import IO, Iterator
 
 from .errors import LwailError
 from .names import check_name, parse_ref
 
-if TYPE_CHECKING:
-    from .artifacts import Artifact, Store
-
 
 class RunArea:
-    def __init__(self, store: Store):
-        self.store = store  # the ledger resolves the artifacts it recorded
-        self.root = store.root / ".runs"
+    def __init__(self, store_root: Path):
+        self.store_root = store_root
+        self.root = store_root / ".runs"
 
     def _folder(self, kind: str, name: str) -> Path:
         check_name(name)
@@ -95,7 +92,7 @@ class RunArea:
 
         path = self._checkpoint_path(kind, name)
         if not path.is_file():
-            raise LwailError(f"--resume: no checkpoint for {kind}/{name} in store {self.store.root}")
+            raise LwailError(f"--resume: no checkpoint for {kind}/{name} in store {self.store_root}")
         try:
             state = torch.load(path, map_location="cpu", weights_only=True)  # tensors and plain data only: no code runs
         except Exception as exc:  # foreign bytes fail torch's reader in many ways (text: KeyError, a cut file: OSError)
@@ -132,21 +129,18 @@ class RunArea:
             raise ValueError(f"bad ledger key {key!r}")
         return self.root / "sweep" / sweep / f"{key}.ref"
 
-    def finished_stage(self, sweep: str, key: str, kind: str, name: str) -> Artifact | None:
-        """The artifact ``kind/name`` a sweep recorded for a stage fingerprint, if it is still there and intact; None
-        otherwise (removed, damaged, or an entry naming anything else), so the stage runs again."""
+    def finished_stage_ref(self, sweep: str, key: str, kind: str, name: str) -> str | None:
+        """The ref ``kind/name@vN`` a sweep recorded for a stage fingerprint; None if there is none or the entry names
+        anything else (the store then checks that the version is still there and intact)."""
         recorded = (_read_small(self._ledger_entry(sweep, key)) or b"").decode(errors="replace").strip()
         parsed = parse_ref(recorded)
         if parsed is None or parsed[:2] != (kind, name) or parsed[2] is None:
             return None
-        try:
-            return self.store.resolve(recorded, kind)
-        except LwailError:
-            return None
+        return recorded
 
-    def record_finished_stage(self, sweep: str, key: str, artifact: Artifact) -> None:
+    def record_finished_stage(self, sweep: str, key: str, ref: str) -> None:
         with _replacing(self._ledger_entry(sweep, key)) as handle:
-            handle.write(artifact.ref)
+            handle.write(ref)
 
     def _status_path(self, sweep: str, run: str) -> Path:
         check_name(sweep)

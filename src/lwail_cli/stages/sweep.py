@@ -40,11 +40,11 @@ def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, mak
     """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents
     (and ``still_current``, for inputs the record cannot name)."""
     key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
-    done = store.runs.finished_stage(plan.name, key, kind, name)
+    done = store.finished_stage(plan.name, key, kind, name)
     if done is not None and still_current(done):
         return done
     artifact = make()
-    store.runs.record_finished_stage(plan.name, key, artifact)
+    store.runs.record_finished_stage(plan.name, key, artifact.ref)
     return artifact
 
 
