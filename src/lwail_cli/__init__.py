@@ -1,11 +1,6 @@
 """lwail: state-only imitation learning with LWAIL."""
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("lwail")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0.0.0+unknown"
+from .version import __version__
 
 
 def load_policy(ref, store=None, device="cpu"):

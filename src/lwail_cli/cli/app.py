@@ -14,7 +14,7 @@ from typing import Optional
 import typer
 from tqdm import tqdm
 
-from .. import __version__
+from ..version import __version__
 from ..artifacts import Store
 from ..errors import LwailError
 from ..names import check_name
