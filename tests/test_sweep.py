@@ -38,6 +38,12 @@ pretrain-icvf = ["icvf.layer_norm=none"]
         (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
         (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
         (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nalso = 5', "'also' must be [[also]] tables"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[[also]]\ntasks = ["InvertedPendulum-v5"]\nseeds = [1]\nthreads = 2',
+         "[[also]] table 1: unknown keys ['threads']"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[[also]]\ntasks = ["InvertedPendulum-v5"]\nseeds = [1]\nembeddings = ["pca"]',
+         "[[also]] table 1: 'embeddings' must be a non-empty list drawn from"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[[also]]\ntasks = ["Swimmer-v5"]\nseeds = [1]', "no bundled demos for Swimmer-v5"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 0', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = "2"', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 256', "the plan gives each run 256 threads; this machine has"),
@@ -94,6 +100,34 @@ def test_the_shipped_plans_are_valid(plan):
     from lwail_cli.stages.sweep_plan import read_plan
 
     assert read_plan(plan).runs  # every task has bundled demos, every override is a valid setting
+
+
+def test_an_also_grid_adds_runs_after_the_plans_own_grid_each_run_once():
+    import tomllib
+
+    from lwail_cli.stages.sweep_plan import SweepRun, plan_from_dict
+
+    raw = tomllib.loads(VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf", "identity"') + """
+[[also]]
+tasks = ["InvertedPendulum-v5", "Hopper-v5"]
+seeds = [1]
+embeddings = ["identity", "plain-phi"]
+[[also]]
+tasks = ["InvertedPendulum-v5"]
+seeds = [0, 1]
+embeddings = ["identity"]
+""")
+    plan = plan_from_dict(raw, "test plan")
+    pendulum, hopper = "InvertedPendulum-v5", "Hopper-v5"
+    assert plan.runs == [SweepRun(pendulum, 0, "icvf"), SweepRun(pendulum, 0, "identity"),
+                         SweepRun(pendulum, 1, "identity"), SweepRun(pendulum, 1, "plain-phi"),
+                         SweepRun(hopper, 1, "identity"), SweepRun(hopper, 1, "plain-phi")]  # the last grid adds nothing new
+    assert plan.tasks == [pendulum, hopper] and plan.kinds == ["icvf", "identity", "plain-phi"]
+    assert plan.data_sets == [(pendulum, 0), (pendulum, 1), (hopper, 1)]  # no Hopper seed 0: no run of it needs one
+    assert plan.config("pretrain-icvf", "plain-phi").icvf.layer_norm == "none"  # a variant listed only in [[also]] is used
+    assert plan.names(SweepRun(hopper, 1, "plain-phi"))["policy"] == "x-hopper-v5-s1-plain-phi"
+    assert plan_from_dict(plan.to_dict(), "a report's record") == plan
+    assert "also" not in plan_from_dict(tomllib.loads(VARIANT_PLAN), "test plan").to_dict()  # a plain plan records what it did
 
 
 def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_data(store, monkeypatch):

@@ -49,7 +49,7 @@ def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, mak
 
 
 def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
-    name = plan.names(SweepRun(task, plan.seeds[0], plan.kinds[0]))["demos"]
+    name = plan.demos_name(task)
     return _once(store, plan, "demos", name, {"task": task}, lambda: import_bundled_demos(store, env_id=task, name=name),
                  still_current=holds_bundled_demos)  # a new bundle is imported as a new version; its runs start over
 
@@ -57,8 +57,8 @@ def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
 def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
     """Data set I of a task and seed, shared by the runs of every embedding kind (its ref returned)."""
     store, plan = _worker(root, plan_dict)
-    name, config = plan.names(SweepRun(task, seed, plan.kinds[0]))["dataset"], plan.config("collect")
-    waiting = [plan.names(SweepRun(task, seed, kind))["policy"] for kind in plan.kinds]  # the runs that need this data
+    name, config = plan.dataset_name(task, seed), plan.config("collect")
+    waiting = [plan.names(run)["policy"] for run in plan.runs if (run.task, run.seed) == (task, seed)]  # the runs that need this data
     for run_name in waiting:
         store.runs.set_sweep_status(plan.name, run_name, "collecting data set I")
     data = _once(store, plan, "dataset", name, {"config": cfg.to_dict(config), "seed": seed, "task": task},
@@ -124,7 +124,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
-        data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t in plan.tasks for s in plan.seeds}
+        data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
         pending = {run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)]): r for r in plan.runs}
         status = {r.label: "queued" for r in plan.runs}
         failures: list[str] = []

@@ -3,7 +3,9 @@ whole before anything runs (`lwail sweep`, and `lwail report` rebuilding it from
 
 An entry of ``embeddings`` is a kind (icvf, identity) or the name of a variant, a ``[variants.NAME]`` table giving
 its kind and its own overrides of the stages after collect (an ablation such as φ without LayerNorm is one more arm
-of the grid). Every artifact of a run is named after the sweep, task, seed and arm.
+of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
+plan, run after the first grid and reported with it. Every artifact of a run is named after the sweep, task, seed
+and arm.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ from .demos import bundled_demos_path
 
 PLAN_STAGES = (*CHAIN, "eval")
 EMBEDDINGS = ("icvf", "identity")
-PLAN_KEYS = {"name", "tasks", "seeds", "embeddings", "set", "variants", "threads"}
+GRID_KEYS = {"tasks", "seeds", "embeddings"}
+PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
 
 
@@ -36,18 +39,46 @@ class SweepRun:
 
 
 @dataclass(frozen=True)
-class SweepPlan:
-    name: str
+class Grid:
+    """Every task × seed × embedding arm of it is a run."""
+
     tasks: tuple[str, ...]
     seeds: tuple[int, ...]
-    kinds: tuple[str, ...]  # the grid's embedding arms: icvf, identity or a variant's name
+    kinds: tuple[str, ...]  # embedding arms: icvf, identity or a variant's name
+
+    @property
+    def runs(self) -> list[SweepRun]:
+        return [SweepRun(task, seed, kind) for task in self.tasks for seed in self.seeds for kind in self.kinds]
+
+    def to_dict(self) -> dict:
+        return {"tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds)}
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    name: str
+    grids: tuple[Grid, ...]  # the plan's own grid, then its [[also]] grids, in the order they run
     overrides: dict  # stage -> tuple of section.field=value assignments
     variants: dict = field(default_factory=dict)  # name -> {"kind": icvf|identity, stage: assignments}
     threads: int = 1  # CPUs (Ray) and torch threads per run: 1 when runs share the cores, more for a lone run
 
     @property
     def runs(self) -> list[SweepRun]:
-        return [SweepRun(task, seed, kind) for task in self.tasks for seed in self.seeds for kind in self.kinds]
+        """Every grid's runs in order, each once."""
+        return list(dict.fromkeys(run for grid in self.grids for run in grid.runs))
+
+    @property
+    def tasks(self) -> list[str]:
+        return list(dict.fromkeys(run.task for run in self.runs))
+
+    @property
+    def kinds(self) -> list[str]:
+        return list(dict.fromkeys(run.kind for run in self.runs))
+
+    @property
+    def data_sets(self) -> list[tuple[str, int]]:
+        """The (task, seed) of each data set I, shared by the runs of every arm of that task and seed."""
+        return list(dict.fromkeys((run.task, run.seed) for run in self.runs))
 
     def embedding_kind(self, arm: str) -> str:
         return self.variants[arm]["kind"] if arm in self.variants else arm
@@ -59,14 +90,21 @@ class SweepPlan:
         fixed = [f"kind={self.embedding_kind(arm)}"] if stage == "pretrain-icvf" and arm is not None else []
         return cfg.with_overrides(cfg.STAGES[stage](), self.overrides.get(stage, ()), variant.get(stage, ()), fixed)
 
+    def demos_name(self, task: str) -> str:
+        return f"{self.name}-{task.lower()}-demos"
+
+    def dataset_name(self, task: str, seed: int) -> str:
+        return f"{self.name}-{task.lower()}-s{seed}-data"
+
     def names(self, run: SweepRun) -> dict[str, str]:
         """Each artifact's name, by kind."""
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
-        return {"demos": f"{self.name}-{run.task.lower()}-demos", "dataset": f"{base}-data", "embedding": f"{base}-{run.kind}",
+        return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": f"{base}-{run.kind}",
                 "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds),
+        also = {"also": [grid.to_dict() for grid in self.grids[1:]]} if len(self.grids) > 1 else {}
+        return {"name": self.name, **self.grids[0].to_dict(), **also,
                 "set": {stage: list(assignments) for stage, assignments in self.overrides.items()},
                 "variants": {name: {key: value if key == "kind" else list(value) for key, value in variant.items()}
                              for name, variant in self.variants.items()}, "threads": self.threads}
@@ -87,25 +125,23 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
     unknown = set(raw) - PLAN_KEYS
     if unknown:
         raise LwailError(f"{source}: unknown keys {sorted(unknown)}; a plan has {sorted(PLAN_KEYS)}")
-    name, tasks, seeds, kinds = raw.get("name"), raw.get("tasks"), raw.get("seeds"), raw.get("embeddings", ["icvf", "identity"])
+    name = raw.get("name")
     if not isinstance(name, str):
         raise LwailError(f"{source}: 'name' must be a string naming the sweep")
     check_name(name)
-    if not _unique_list(tasks, str):
-        raise LwailError(f"{source}: 'tasks' must be a non-empty list of distinct env ids")
-    if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
-        raise LwailError(f"{source}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
     variants = _read_variants(raw.get("variants", {}), source)
-    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS) | set(variants):
-        raise LwailError(f"{source}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)} and the plan's [variants]")
-    unused = sorted(set(variants) - set(kinds))
+    also = raw.get("also", [])
+    if not isinstance(also, list) or not all(isinstance(table, dict) for table in also):
+        raise LwailError(f"{source}: 'also' must be [[also]] tables, each with its own tasks, seeds and embeddings")
+    grids = (_read_grid(raw, source, variants),
+             *(_read_grid(table, f"{source}: [[also]] table {number}", variants, keys=GRID_KEYS) for number, table in enumerate(also, 1)))
+    unused = sorted(set(variants) - {kind for grid in grids for kind in grid.kinds})
     if unused:
         raise LwailError(f"{source}: [variants] {', '.join(unused)} defined but not listed in 'embeddings'")
     threads = raw.get("threads", 1)
     if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= 256:
         raise LwailError(f"{source}: 'threads' must be an integer from 1 to 256 (CPUs per run), got {threads!r}")
-    plan = SweepPlan(name, tuple(tasks), tuple(seeds), tuple(kinds), _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"),
-                     variants, threads)
+    plan = SweepPlan(name, grids, _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
     for stage in PLAN_STAGES:
@@ -115,6 +151,21 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
         for artifact_name in plan.names(run).values():
             check_name(artifact_name)
     return plan
+
+
+def _read_grid(table: dict, where: str, variants: dict, keys: set[str] | None = None) -> Grid:
+    """tasks, seeds and embeddings (icvf and identity where not given); ``keys``: the only keys the table may hold."""
+    unknown = set(table) - keys if keys is not None else set()
+    if unknown:
+        raise LwailError(f"{where}: unknown keys {sorted(unknown)}; it may hold {sorted(keys)}")
+    tasks, seeds, kinds = table.get("tasks"), table.get("seeds"), table.get("embeddings", ["icvf", "identity"])
+    if not _unique_list(tasks, str):
+        raise LwailError(f"{where}: 'tasks' must be a non-empty list of distinct env ids")
+    if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
+        raise LwailError(f"{where}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
+    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS) | set(variants):
+        raise LwailError(f"{where}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)} and the plan's [variants]")
+    return Grid(tuple(tasks), tuple(seeds), tuple(kinds))
 
 
 def _read_overrides(table, stages: tuple[str, ...], where: str) -> dict[str, tuple[str, ...]]:
