@@ -60,3 +60,17 @@ def test_missing_video_support_is_one_clear_line(cli, store, policy, tmp_path, m
     assert result.exit_code == 1 and "cannot render InvertedPendulum-v5 headless with MUJOCO_GL=no-such-backend" in result.output
     assert "Traceback" not in result.output and committed_versions(store) == before
     assert result.output.strip().count("\n") == 0, result.output
+
+
+def test_an_interrupted_film_leaves_no_partial_file(cli, store, policy, tmp_path, monkeypatch):
+    pytest.importorskip("imageio.v2")
+    from lwail_cli import video
+
+    def rollout_that_fails_mid_film(*args, on_frame, **kwargs):
+        on_frame(0, np.zeros((64, 64, 3), dtype=np.uint8))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(video, "rollout", rollout_that_fails_mid_film)
+    with pytest.raises(KeyboardInterrupt):
+        video.filmed_rollout("InvertedPendulum-v5", None, [0, 1], tmp_path / "videos", "p")
+    assert list((tmp_path / "videos").iterdir()) == []

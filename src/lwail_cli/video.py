@@ -34,10 +34,15 @@ def filmed_rollout(env_id: str, policy: Policy | None, seeds: Sequence[int], dir
         writers[index].append_data(frame)
 
     try:
-        played = rollout(env_id, policy, seeds, record=record, on_frame=on_frame, frame_every=every)
-    finally:
-        for writer in writers.values():
-            writer.close()
+        try:
+            played = rollout(env_id, policy, seeds, record=record, on_frame=on_frame, frame_every=every)
+        finally:
+            for writer in writers.values():
+                writer.close()
+    except BaseException:  # an interrupted film is not a video: leave nothing half-written behind
+        for path in partial:
+            path.unlink(missing_ok=True)
+        raise
     videos = []
     for path, seed, episode_return in zip(partial, seeds, played.returns):
         videos.append(path.rename(directory / f"{prefix}-seed{seed}-return{episode_return:.0f}.mp4"))
