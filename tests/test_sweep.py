@@ -12,10 +12,10 @@ PLANS = Path(__file__).resolve().parents[1] / "plans"
 VARIANT_PLAN = '''name = "x"
 tasks = ["InvertedPendulum-v5"]
 seeds = [0]
-embeddings = ["icvf", "plain-phi"]
-[variants.plain-phi]
+embeddings = ["icvf", "jax-phi"]
+[variants.jax-phi]
 kind = "icvf"
-pretrain-icvf = ["icvf.layer_norm=none"]
+pretrain-icvf = ["icvf.layer_norm=after"]
 '''
 
 
@@ -32,12 +32,12 @@ pretrain-icvf = ["icvf.layer_norm=none"]
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\npretrain-icvf = ["kind=identity"]', "comes from 'embeddings'"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\ntrain = ["steps=1"]', "[set] may hold lists"),
         ('name = "x"\ntasks = [', "is not valid TOML"),
-        (VARIANT_PLAN.replace('[variants.plain-phi]', '[variants.icvf]'), "would shadow the embedding kind icvf"),
+        (VARIANT_PLAN.replace('[variants.jax-phi]', '[variants.icvf]'), "would shadow the embedding kind icvf"),
         (VARIANT_PLAN.replace('kind = "icvf"', 'kind = "pca"'), "needs kind = one of ['icvf', 'identity']"),
-        (VARIANT_PLAN + 'collect = ["transitions=5"]', "[variants.plain-phi] may hold lists of field=value for the stages ['pretrain-icvf'"),
-        (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
-        (VARIANT_PLAN.replace('"icvf.layer_norm=none"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
-        (VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf"'), "[variants] plain-phi defined but not listed in 'embeddings'"),
+        (VARIANT_PLAN + 'collect = ["transitions=5"]', "[variants.jax-phi] may hold lists of field=value for the stages ['pretrain-icvf'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=after"', '"kind=identity"'), "the embedding kind comes from 'embeddings'"),
+        (VARIANT_PLAN.replace('"icvf.layer_norm=after"', '"icvf.ensemble=maybe"'), "--set icvf.ensemble: cannot read 'maybe'"),
+        (VARIANT_PLAN.replace('"icvf", "jax-phi"', '"icvf"'), "[variants] jax-phi defined but not listed in 'embeddings'"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nalso = 5', "'also' must be [[also]] tables"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[[also]]\ntasks = ["InvertedPendulum-v5"]\nseeds = [1]\nthreads = 2',
          "[[also]] table 1: unknown keys ['threads']"),
@@ -107,11 +107,11 @@ def test_an_also_grid_adds_runs_after_the_plans_own_grid_each_run_once():
 
     from lwail_cli.stages.sweep_plan import SweepRun, plan_from_dict
 
-    raw = tomllib.loads(VARIANT_PLAN.replace('"icvf", "plain-phi"', '"icvf", "identity"') + """
+    raw = tomllib.loads(VARIANT_PLAN.replace('"icvf", "jax-phi"', '"icvf", "identity"') + """
 [[also]]
 tasks = ["InvertedPendulum-v5", "Hopper-v5"]
 seeds = [1]
-embeddings = ["identity", "plain-phi"]
+embeddings = ["identity", "jax-phi"]
 [[also]]
 tasks = ["InvertedPendulum-v5"]
 seeds = [0, 1]
@@ -120,12 +120,12 @@ embeddings = ["identity"]
     plan = plan_from_dict(raw, "test plan")
     pendulum, hopper = "InvertedPendulum-v5", "Hopper-v5"
     assert plan.runs == [SweepRun(pendulum, 0, "icvf"), SweepRun(pendulum, 0, "identity"),
-                         SweepRun(pendulum, 1, "identity"), SweepRun(pendulum, 1, "plain-phi"),
-                         SweepRun(hopper, 1, "identity"), SweepRun(hopper, 1, "plain-phi")]  # the last grid adds nothing new
-    assert plan.tasks == [pendulum, hopper] and plan.kinds == ["icvf", "identity", "plain-phi"]
+                         SweepRun(pendulum, 1, "identity"), SweepRun(pendulum, 1, "jax-phi"),
+                         SweepRun(hopper, 1, "identity"), SweepRun(hopper, 1, "jax-phi")]  # the last grid adds nothing new
+    assert plan.tasks == [pendulum, hopper] and plan.kinds == ["icvf", "identity", "jax-phi"]
     assert plan.data_sets == [(pendulum, 0), (pendulum, 1), (hopper, 1)]  # no Hopper seed 0: no run of it needs one
-    assert plan.config("pretrain-icvf", "plain-phi").icvf.layer_norm == "none"  # a variant listed only in [[also]] is used
-    assert plan.names(SweepRun(hopper, 1, "plain-phi"))["policy"] == "x-hopper-v5-s1-plain-phi"
+    assert plan.config("pretrain-icvf", "jax-phi").icvf.layer_norm == "after"  # a variant listed only in [[also]] is used
+    assert plan.names(SweepRun(hopper, 1, "jax-phi"))["policy"] == "x-hopper-v5-s1-jax-phi"
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan
     assert "also" not in plan_from_dict(tomllib.loads(VARIANT_PLAN), "test plan").to_dict()  # a plain plan records what it did
 
@@ -140,10 +140,10 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     from lwail_cli.stages.sweep_plan import plan_from_dict
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
-    raw.update(name="ab", seeds=[0], embeddings=["icvf", "plain-phi"],
-               variants={"plain-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=none"], "imitate": ["td3.gamma=0.9"]}})
+    raw.update(name="ab", seeds=[0], embeddings=["icvf", "jax-phi"],
+               variants={"jax-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=after"], "imitate": ["td3.gamma=0.9"]}})
     plan = plan_from_dict(raw, "test plan")
-    assert [run.kind for run in plan.runs] == ["icvf", "plain-phi"]
+    assert [run.kind for run in plan.runs] == ["icvf", "jax-phi"]
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan  # a report rebuilds the same plan
 
     shown = []  # what the driver shows of the first run as each of its stages starts, collect's included
@@ -171,7 +171,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     assert {kind: e.config["icvf"]["layer_norm"] for kind, e in embeddings.items()} == planned and len(set(planned.values())) == 2
     assert {e.config["type"] for e in embeddings.values()} == {"icvf"}
     policies = {kind: store.resolve(results[kind]["policy"], "policy") for kind in plan.kinds}
-    assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "plain-phi": 0.9}
+    assert {kind: p.config["td3"]["gamma"] for kind, p in policies.items()} == {"icvf": 0.99, "jax-phi": 0.9}
     assert {p.config["train"]["steps"] for p in policies.values()} == {600}  # the plan's [set] reaches every arm
     assert [kind for kind, *_ in committed_versions(store)].count("dataset") == 1  # one data set I for both arms
     store.runs.set_sweep_status(plan.name, plan.names(plan.runs[1])["policy"], "imitating")  # as a run that imitates says
