@@ -281,3 +281,45 @@ def test_an_imitating_run_says_its_pace_and_the_time_left(store):
     store.runs.write_run_log("policy", name, "learning_curve.csv", rows)
     # the last 6 evaluations: 50k steps in 500 s, 100 env-steps/s; 900k steps to go take 2.5 h
     assert _live_status(store, plan, run) == "imitating: step 100000 of 1000000, normalized score 10.0, 100 env-steps/s, ~2.5 h to go"
+
+
+@pytest.mark.parametrize("threads, at_once", [(1, 2), (2, 1)])
+def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(store, monkeypatch, threads, at_once):
+    import sys
+    import tomllib
+    import types
+
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    raw = tomllib.loads((PLANS / "smoke.toml").read_text()) | {"threads": threads}
+    plan = plan_from_dict(raw, "test plan")
+    started, running = [], set()
+
+    class Task:  # a Ray task that finishes when the driver next waits, first started first finished
+        def __init__(self, function, args):
+            self.function, self.args = function, args
+
+    def remote(num_cpus, max_retries=3):
+        def wrap(function):
+            def submit(*args):
+                task = Task(function, args)
+                if function is sweep.run_task:
+                    started.append(args[2:5])
+                    running.add(task)
+                    assert len(running) <= at_once, f"{len(running)} runs handed to Ray at once on 2 CPUs"
+                return task
+            return types.SimpleNamespace(remote=submit)
+        return wrap
+
+    def wait(tasks, num_returns, timeout):
+        oldest = next(task for task in tasks if task in running)
+        running.discard(oldest)
+        return [oldest], [task for task in tasks if task is not oldest]
+
+    fake_ray = types.SimpleNamespace(init=lambda **kwargs: None, shutdown=lambda: None, remote=remote, wait=wait,
+                                     cluster_resources=lambda: {"CPU": 2.0}, get=lambda task: {"normalized_score": 1.0})
+    monkeypatch.setitem(sys.modules, "ray", fake_ray)
+    monkeypatch.setattr(sweep.os, "cpu_count", lambda: 2)
+    assert sweep.run_sweep(store, plan=plan, poll_seconds=0) == []
+    assert started == [(run.task, run.seed, run.kind) for run in plan.runs] and len(started) == 6

@@ -125,11 +125,16 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
-        pending = {run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)]): r for r in plan.runs}
+        # Ray starts ready tasks in no set order: hand it only as many runs as its CPUs hold, in the plan's order
+        at_once = max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads)
+        waiting, pending = list(plan.runs), {}
         status = {r.label: "queued" for r in plan.runs}
         failures: list[str] = []
         shown: dict[str, str] = {}
-        while pending:
+        while waiting or pending:
+            while waiting and len(pending) < at_once:
+                r = waiting.pop(0)
+                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)])] = r
             done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=poll_seconds)
             for ref in done:
                 finished = pending.pop(ref)
@@ -139,8 +144,8 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
                     cause = getattr(exc, "cause", None) or exc
                     status[finished.label] = f"failed: {cause}"
                     failures.append(f"{finished.label}: {cause}")
-            for waiting in pending.values():
-                status[waiting.label] = _live_status(store, plan, waiting) or "queued"
+            for unfinished in [*pending.values(), *waiting]:
+                status[unfinished.label] = _live_status(store, plan, unfinished) or "queued"
             if on_status is not None and status != shown:
                 on_status(dict(status))
                 shown = dict(status)
