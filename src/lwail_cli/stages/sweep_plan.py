@@ -2,7 +2,7 @@
 whole before anything runs (`lwail sweep`, and `lwail report` rebuilding it from a report's record).
 
 An entry of ``embeddings`` is a kind (icvf, identity) or the name of a variant, a ``[variants.NAME]`` table giving
-its kind and its own overrides of the stages after collect (an ablation such as φ without LayerNorm is one more arm
+its kind and its own overrides of the stages after collect (an ablation such as φ with LayerNorm is one more arm
 of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
 plan, run after the first grid and reported with it. Every artifact of a run is named after the sweep, task, seed
 and arm.
