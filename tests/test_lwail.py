@@ -29,9 +29,11 @@ def chain_episodes(seed=0, cells=100, code_dim=16, episodes=60, length=40):
     return result
 
 
-def test_icvf_latent_distance_tracks_time_better_than_raw_states():
-    # (ICVF's TD loss rises while values grow from 0 towards their fixed point, so the probe is the check)
-    config = cfg.ICVFConfig(steps=1500, hidden=(32,), embedding_dim=32, log_every=500, lr=1e-3, gamma=0.9)
+@pytest.mark.parametrize("layer_norm", ["none", "after", "before"])
+def test_icvf_latent_distance_tracks_time_better_than_raw_states(layer_norm):
+    # (ICVF's TD loss rises while values grow from 0 towards their fixed point, so the probe is the check.)
+    # lr 1e-2: at 1e-3, φ without LayerNorm learns this chain far more slowly (probe 0.035 after 1,500 steps, 0.165 with it)
+    config = cfg.ICVFConfig(steps=1500, hidden=(32,), embedding_dim=32, log_every=500, lr=1e-2, gamma=0.9, layer_norm=layer_norm)
     result = pretrain_icvf(chain_episodes(), obs_dim=16, config=config, seed=0)
     assert abs(result.probe_raw) < 0.05  # random codes: raw distance says ~nothing about time apart
     assert result.probe_latent > result.probe_raw + 0.08, (result.probe_latent, result.probe_raw)
