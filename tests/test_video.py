@@ -62,7 +62,7 @@ def test_missing_video_support_is_one_clear_line(cli, store, policy, tmp_path, m
     assert result.output.strip().count("\n") == 0, result.output
 
 
-def test_an_interrupted_film_leaves_no_partial_file(cli, store, policy, tmp_path, monkeypatch):
+def test_an_interrupted_film_leaves_no_partial_file(tmp_path, monkeypatch):
     pytest.importorskip("imageio.v2")
     from lwail_cli import video
 
