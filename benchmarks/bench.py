@@ -1,11 +1,12 @@
 """Side-by-side speed of lwail's imitation loop, a textbook PyTorch TD3, SB3's TD3, and ICVF.
 
-    python -m benchmarks.bench [--steps 4000] [--icvf-steps 3000] [--skip-sb3]
+    python -m benchmarks.bench [--steps 4000] [--icvf-steps 3000] [--skip-sb3] [--device cuda]
 
 Prints a table and appends it to benchmarks/results/<date>-<host>.csv. Every loop: Hopper-v5,
 256-256 networks, batch 256, one TD3 update per env step, after 1,000 random warm-up steps;
 evaluation excluded. lwail's loop includes the LWAIL reward (an ICVF-sized φ, σ(−f) per step,
-the critic update and full relabel every 4,000 steps).
+the critic update and full relabel every 4,000 steps). --device puts every loop's networks and
+batches there (the environments stay on the CPU).
 """
 
 from __future__ import annotations
@@ -46,33 +47,33 @@ def td3_iteration_gflop(obs_dim: int, act_dim: int, hidden: int = 256, batch: in
     return 2 * batch * (critic_step + actor_step / policy_delay) / 1e9
 
 
-def lwail_loop(steps: int) -> float:
+def lwail_loop(steps: int, device: torch.device) -> float:
     info = describe_env(ENV_ID)
     config = cfg.ImitationConfig(td3=cfg.TD3Config(random_steps=WARMUP, learning_starts=WARMUP))
     torch.manual_seed(0)
-    encoder = Encoder(info.obs_dim, cfg.ICVFConfig()).requires_grad_(False)
+    encoder = Encoder(info.obs_dim, cfg.ICVFConfig()).to(device).requires_grad_(False)
     expert_episodes = rollout(ENV_ID, None, [1], record=True, transitions=1000).episodes
     with torch.no_grad():
-        states = torch.as_tensor(np.concatenate([e.observations[:-1] for e in expert_episodes]))
-        successors = torch.as_tensor(np.concatenate([e.observations[1:] for e in expert_episodes]))
+        states = torch.as_tensor(np.concatenate([e.observations[:-1] for e in expert_episodes]), device=device)
+        successors = torch.as_tensor(np.concatenate([e.observations[1:] for e in expert_episodes]), device=device)
         expert = transition_features(encoder, states, successors)
     critic = cfg.CriticConfig()
-    trainer = DiscriminatorTrainer(Critic(expert.shape[1], critic.hidden), critic)
+    trainer = DiscriminatorTrainer(Critic(expert.shape[1], critic.hidden).to(device), critic)
     total = WARMUP + steps
     reward = AdversarialReward(encoder, trainer, expert, total + 1, update_every=config.update_every, update_steps=config.update_steps)
-    agent = TD3(info, config.td3)
+    agent = TD3(info, config.td3, device)
     train = cfg.TrainConfig(steps=total + 1, eval_every=10 * total, checkpoint_every=10 * total)
     marks = {}
 
     def mark(step, run):
         marks[step] = time.perf_counter()
 
-    run_buffer = ReplayBuffer(total + 1, info.obs_dim, info.act_dim)
+    run_buffer = ReplayBuffer(total + 1, info.obs_dim, info.act_dim, device)
     train_td3(ENV_ID, agent, run_buffer, config.td3, train, 0, reward_model=reward, on_progress=mark, progress_every=math.gcd(WARMUP, steps))
     return steps / (marks[total] - marks[WARMUP])
 
 
-def sb3_loop(steps: int) -> float:
+def sb3_loop(steps: int, device: torch.device) -> float:
     from stable_baselines3 import TD3 as SB3TD3
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.noise import NormalActionNoise
@@ -92,18 +93,18 @@ def sb3_loop(steps: int) -> float:
     model = SB3TD3(
         "MlpPolicy", env, learning_rate=1e-3, buffer_size=WARMUP + steps, learning_starts=WARMUP, batch_size=256,
         train_freq=1, gradient_steps=1, policy_delay=2, action_noise=NormalActionNoise(np.zeros(act_dim), 0.1 * np.ones(act_dim)),
-        policy_kwargs={"net_arch": [256, 256]}, device="cpu", seed=0, verbose=0,
+        policy_kwargs={"net_arch": [256, 256]}, device=device, seed=0, verbose=0,
     )
     timer = Timer()
     model.learn(total_timesteps=WARMUP + steps, callback=timer)
     return steps / (timer.marks[WARMUP + steps] - timer.marks[WARMUP])
 
 
-def icvf_run(steps: int) -> tuple[float, float, float, float]:
+def icvf_run(steps: int, device: torch.device) -> tuple[float, float, float, float]:
     """(gradient steps/s, seconds to the probe plateau, plateau probe, raw-state probe)."""
     episodes = rollout(ENV_ID, None, [0], record=True, transitions=10_000).episodes
     config = cfg.ICVFConfig(steps=steps, log_every=max(1, steps // 12))
-    result = pretrain_icvf(episodes, describe_env(ENV_ID).obs_dim, config, seed=0)
+    result = pretrain_icvf(episodes, describe_env(ENV_ID).obs_dim, config, seed=0, device=device)
     log = result.log
     best = log["probe_latent"].max()
     plateau = log[log["probe_latent"] >= best - 0.01].iloc[0]
@@ -115,15 +116,18 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=4_000, help="timed env steps per loop (>= 4000 includes a critic update)")
     parser.add_argument("--icvf-steps", type=int, default=3_000)
     parser.add_argument("--skip-sb3", action="store_true")
+    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N")
     args = parser.parse_args()
+    device = torch.device(args.device)
     info = describe_env(ENV_ID)
     gflop = td3_iteration_gflop(info.obs_dim, info.act_dim)
-    rows = [("lwail imitation loop", lwail_loop(args.steps))]
-    rows.append(("plain PyTorch TD3", run_plain_td3(ENV_ID, WARMUP, args.steps, cfg.TD3Config())))
+    rows = [("lwail imitation loop", lwail_loop(args.steps, device))]
+    rows.append(("plain PyTorch TD3", run_plain_td3(ENV_ID, WARMUP, args.steps, cfg.TD3Config(), device=device)))
     if not args.skip_sb3:
-        rows.append(("Stable-Baselines3 TD3", sb3_loop(args.steps)))
-    icvf_rate, plateau_s, plateau_probe, raw_probe = icvf_run(args.icvf_steps)
-    machine = f"{platform.node()} {platform.processor() or platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, {torch.get_num_threads()} threads"
+        rows.append(("Stable-Baselines3 TD3", sb3_loop(args.steps, device)))
+    icvf_rate, plateau_s, plateau_probe, raw_probe = icvf_run(args.icvf_steps, device)
+    on = torch.cuda.get_device_name(device) if device.type == "cuda" else "CPU"
+    machine = f"{platform.node()} {platform.processor() or platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, {torch.get_num_threads()} threads, on {on}"
     table = [{"measure": f"{name} env-steps/s", "value": rate, "note": f"{1000 / rate:.2f} ms/step, {gflop * rate:.0f} GFLOP/s in TD3 matmuls"} for name, rate in rows]
     lwail_rate = rows[0][1]
     for name, rate in rows[1:]:

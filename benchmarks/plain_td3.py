@@ -18,13 +18,13 @@ from lwail_cli.td3 import Actor
 
 
 class PlainTD3:
-    def __init__(self, env: EnvInfo, config: TD3Config):
+    def __init__(self, env: EnvInfo, config: TD3Config, device: torch.device | str = "cpu"):
         self.config = config
-        self.actor = Actor.for_env(env, config.hidden)
-        self.actor_target = Actor.for_env(env, config.hidden)
+        self.actor = Actor.for_env(env, config.hidden).to(device)
+        self.actor_target = Actor.for_env(env, config.hidden).to(device)
         self.actor_target.load_state_dict(self.actor.state_dict())
-        self.critics = nn.ModuleList(mlp(env.obs_dim + env.act_dim, config.hidden, 1) for _ in range(2))
-        self.critics_target = nn.ModuleList(mlp(env.obs_dim + env.act_dim, config.hidden, 1) for _ in range(2))
+        self.critics = nn.ModuleList(mlp(env.obs_dim + env.act_dim, config.hidden, 1) for _ in range(2)).to(device)
+        self.critics_target = nn.ModuleList(mlp(env.obs_dim + env.act_dim, config.hidden, 1) for _ in range(2)).to(device)
         self.critics_target.load_state_dict(self.critics.state_dict())
         self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=config.actor_lr)
         self.critic_optimizer = torch.optim.Adam(self.critics.parameters(), lr=config.critic_lr)
@@ -70,10 +70,10 @@ class PlainTD3:
 
 
 class PlainReplayBuffer:
-    """Fujimoto-style numpy buffer: sampled with numpy, copied into new tensors every batch."""
+    """Fujimoto-style numpy buffer: sampled with numpy, copied into new tensors (and to the device) every batch."""
 
-    def __init__(self, capacity: int, obs_dim: int, act_dim: int):
-        self.capacity, self.ptr, self.size = capacity, 0, 0
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int, device: torch.device | str = "cpu"):
+        self.capacity, self.ptr, self.size, self.device = capacity, 0, 0, device
         self.obs = np.zeros((capacity, obs_dim), np.float32)
         self.act = np.zeros((capacity, act_dim), np.float32)
         self.next_obs = np.zeros((capacity, obs_dim), np.float32)
@@ -88,23 +88,23 @@ class PlainReplayBuffer:
     def sample(self, batch_size: int) -> dict[str, torch.Tensor]:
         i = np.random.randint(0, self.size, size=batch_size)
         return {
-            "observations": torch.FloatTensor(self.obs[i]),
-            "actions": torch.FloatTensor(self.act[i]),
-            "next_observations": torch.FloatTensor(self.next_obs[i]),
-            "rewards": torch.FloatTensor(self.reward[i]),
-            "not_terminated": torch.FloatTensor(self.not_done[i]),
+            "observations": torch.FloatTensor(self.obs[i]).to(self.device),
+            "actions": torch.FloatTensor(self.act[i]).to(self.device),
+            "next_observations": torch.FloatTensor(self.next_obs[i]).to(self.device),
+            "rewards": torch.FloatTensor(self.reward[i]).to(self.device),
+            "not_terminated": torch.FloatTensor(self.not_done[i]).to(self.device),
         }
 
 
-def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed: int = 0) -> float:
+def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed: int = 0, device: torch.device | str = "cpu") -> float:
     """Env-steps/s of the textbook loop over ``steps`` steps after ``warmup`` random steps."""
     import time
 
     env = make_env(env_id, seed=seed)
     info = env_info(env)
     torch.manual_seed(seed)
-    agent = PlainTD3(info, config)
-    buffer = PlainReplayBuffer(warmup + steps, info.obs_dim, info.act_dim)
+    agent = PlainTD3(info, config, device)
+    buffer = PlainReplayBuffer(warmup + steps, info.obs_dim, info.act_dim, device)
     obs, _ = env.reset(seed=seed)
     scale = (env.action_space.high - env.action_space.low) / 2
     started = None
@@ -115,7 +115,7 @@ def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed:
             action = env.action_space.sample()
         else:
             with torch.no_grad():
-                action = agent.actor(torch.FloatTensor(obs.reshape(1, -1))).numpy()[0]
+                action = agent.actor(torch.FloatTensor(obs.reshape(1, -1)).to(device)).cpu().numpy()[0]
             action = (action + np.random.normal(0, config.exploration_noise * scale)).clip(env.action_space.low, env.action_space.high)
         next_obs, reward, terminated, truncated, _ = env.step(action)
         buffer.add(obs, action, reward, next_obs, float(terminated))
