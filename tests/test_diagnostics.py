@@ -4,12 +4,16 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
+from safetensors.torch import load_file
 
 from lwail_cli import config as cfg
 from lwail_cli.data import Episode
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer
 from lwail_cli.icvf import Encoder, probe_critic_needs
+from lwail_cli.data import transition_pairs
 from lwail_cli.imitation import AdversarialReward
+from lwail_cli.loaders import load_critic, load_dataset, load_encoder, parent
+from lwail_cli.stages.shared import pair_features
 from lwail_cli.rollout import Rollouts
 from lwail_cli.stages import collect, demos, embed, imitate, warmup
 
@@ -80,7 +84,8 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     lines = [line.split() for line in result.output.splitlines()]
     assert [row[0] for row in lines if row and row[0].isdigit()] == ["500", "1000"]
     header = next(row for row in lines if row and row[0] == "step")
-    for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman", "actor_normalized_score"):
+    for column in ("reward_expert_mean", "pseudo_reward_mean", "reward_random_mean", "wasserstein_estimate", "pseudo_return_spearman",
+                   "pseudo_reward_std", "reward_slope_policy", "critic_shift", "actor_normalized_score"):
         assert column in header
     live = pd.read_csv(store.runs.run_log("policy", "run", "learning_curve.csv"))
     kept, other = live.loc[live["step"] == 1000, ["normalized_score", "actor_normalized_score"]].iloc[0]
@@ -106,6 +111,21 @@ def test_imitate_keeps_the_loss_form_the_critic_was_warmed_up_with(stages, cli):
                  "--set", "td3.random_steps=100", "--set", "td3.learning_starts=300", "--eval-every", "300", "--set", "train.eval_episodes=1")
     assert result.exit_code == 0, result.output
     assert store.resolve("invertedpendulum-v5-lwail", "policy").config["critic"]["tanh"] is False
+
+
+def test_a_standardized_critic_is_fitted_on_data_set_i_saved_and_inherited_by_imitate(stages, cli):
+    store, device, bundled, embedding = stages
+    assert cli("warmup-disc", embedding.ref, bundled.ref, "--set", "steps=2", "--set", "critic.standardize=true", "--name", "scaled").exit_code == 0
+    disc = store.resolve("scaled", "discriminator")
+    critic = load_critic(disc)
+    features = pair_features(load_encoder(embedding, device), *transition_pairs(load_dataset(parent(store, disc, "dataset"))), device)
+    assert torch.allclose(critic.standardized(features).mean(0), torch.zeros(8), atol=1e-4)  # the saved statistics are data set I's
+    result = cli("imitate", ENV, "--demos", bundled.ref, "--embedding", embedding.ref, "--disc", "scaled", "--steps", "300",
+                 "--set", "td3.random_steps=100", "--set", "td3.learning_starts=300", "--eval-every", "300", "--set", "train.eval_episodes=1")
+    assert result.exit_code == 0, result.output
+    policy = store.resolve("invertedpendulum-v5-lwail", "policy")
+    assert policy.config["critic"]["standardize"] is True
+    assert torch.equal(load_file(policy.file("critic.safetensors"))["scale"], critic.scale)  # f's online updates kept its units
 
 
 def test_pretraining_with_demos_logs_the_critic_probe_at_every_log_step(store):

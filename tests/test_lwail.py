@@ -8,7 +8,7 @@ from lwail_cli.stages import collect, demos, embed, evaluate, expert, imitate, w
 from lwail_cli.loaders import load_policy
 from lwail_cli.data import Episode
 from lwail_cli.errors import LwailError
-from lwail_cli.discriminator import Critic, DiscriminatorTrainer, gradient_penalty, transition_features
+from lwail_cli.discriminator import Critic, DiscriminatorTrainer, critic_loss, gradient_penalty, transition_features
 from lwail_cli.icvf import Encoder, GoalSampler, pretrain_icvf
 from lwail_cli.imitation import AdversarialReward
 from lwail_cli.replay import ReplayBuffer
@@ -81,6 +81,23 @@ def test_gradient_penalty_of_a_linear_critic_is_known():
     assert gradient_penalty(critic, expert, policy).item() == pytest.approx(0.0, abs=1e-10)
 
 
+def test_a_standardized_critic_penalises_its_slope_in_standardized_units():
+    rng = np.random.default_rng(0)
+    features = torch.as_tensor(np.stack([rng.normal(5.0, 10.0, 4000), rng.normal(-1.0, 0.1, 4000), np.full(4000, 3.0)], 1), dtype=torch.float32)
+    critic = Critic(3, hidden=(), standardize=True)
+    critic.fit_standardization(features)
+    z = critic.standardized(features)
+    assert torch.allclose(z[:, :2].mean(0), torch.zeros(2), atol=1e-4) and torch.allclose(z[:, :2].std(0), torch.ones(2), atol=1e-4)
+    assert torch.equal(z[:, 2], torch.zeros(4000))  # an input that never varies is centred, not blown up
+    with torch.no_grad():
+        critic.net[0].weight.copy_(torch.tensor([[0.6, 0.8, 0.0]]))  # slope 1 in standardized units, 0.08 and 8 in raw ones
+    expert, policy = features[:2000], features[2000:]
+    loss, wasserstein = critic_loss(critic, expert, policy, cfg.CriticConfig(hidden=(), tanh=False, gp_weight=10.0))
+    assert loss.item() == pytest.approx(-wasserstein.item(), abs=1e-5)  # no penalty
+    raw_slope = (critic.net[0].weight[0, :2] / critic.scale[:2]).norm().item()  # ≈ ‖(0.06, 8)‖
+    assert gradient_penalty(critic, expert, policy).item() == pytest.approx((raw_slope - 1.0) ** 2, rel=1e-4)  # in raw units there would be
+
+
 @pytest.mark.parametrize("tanh, wasserstein_at_least", [(False, 3.0), (True, 1.5)])
 def test_critic_learns_to_separate_expert_from_policy(tanh, wasserstein_at_least):
     config = cfg.CriticConfig(hidden=(16, 16), tanh=tanh)
@@ -111,6 +128,26 @@ def test_relabelling_makes_every_reward_sigma_of_minus_current_f():
     with torch.no_grad():
         expected = torch.sigmoid(-trainer.critic(transition_features(encoder, storage["observations"], storage["next_observations"])))
     assert torch.allclose(storage["rewards"][:, 0], expected, atol=1e-6)
+    recent = torch.arange(50, 100) % 80  # the pairs of the last update of f (at step 100), not overwritten since
+    assert model.recent["pseudo_reward_std"].item() == pytest.approx(expected[recent].std().item(), rel=1e-5)
+    assert model.recent["critic_shift"].item() > 0.0  # f moved at its last update
+
+
+def test_reward_slope_of_a_linear_critic_is_known_and_a_frozen_critic_does_not_move():
+    critic = Critic(4, hidden=())  # f(x) = w·[s, s' − s] + b, so ∂f/∂s' = w's second half
+    with torch.no_grad():
+        critic.net[0].weight.copy_(torch.tensor([[1.0, -2.0, 3.0, 4.0]]))
+    trainer = DiscriminatorTrainer(critic, cfg.CriticConfig(hidden=()))
+    model = AdversarialReward(Encoder(2, None), trainer, torch.randn(10, 4), capacity=40, update_every=20, update_steps=0)
+    buffer = ReplayBuffer(40, obs_dim=2, act_dim=1)
+    rng = np.random.default_rng(1)
+    for step in range(1, 21):
+        buffer.add(rng.normal(size=2), rng.normal(size=1), 0.0, rng.normal(size=2), False)
+        model.prepare(step, buffer)
+    reward = buffer.storage["rewards"][:20, 0]
+    expected = (reward * (1 - reward)).mean() * 5.0  # |∂σ(−f)/∂f| · ‖(3, 4)‖
+    assert model.recent["reward_slope_policy"].item() == pytest.approx(expected.item(), rel=1e-5)
+    assert model.recent["critic_shift"].item() == 0.0  # no update steps: f did not move
 
 
 def _expert_config(steps, checkpoint_every):

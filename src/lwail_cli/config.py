@@ -69,6 +69,7 @@ class CriticConfig(Validated):
     lr: float = setting(1e-3, "Adam learning rate of f (warm-up and online updates)", low=1e-7, high=1.0)
     gp_weight: float = setting(10.0, "weight λ of the WGAN-GP gradient penalty", low=0.0, high=1e4)
     tanh: bool = setting(True, "loss on tanh f, as the authors' code (false: the paper's plain dual); the reward stays σ(−f)")
+    standardize: bool = setting(False, "standardise each input of f by its mean and spread over data set I's pairs, so the gradient penalty acts in those units (issue 40's screen)")
 
 
 # ------------------------------------------------------------------------------ one config per stage

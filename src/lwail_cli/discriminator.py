@@ -3,9 +3,13 @@
 f is trained to be low on expert transitions and high on the policy's:
 loss = mean g(f(x_E)) − mean g(f(x_π)) + λ·mean(‖∇f(x̂)‖₂ − 1)², on x = [φ(s), φ(s') − φ(s)],
 with g = tanh (the authors' code) or the identity (the paper's plain dual); see docs/algorithm.md.
+With ``critic.standardize`` each input is first standardised by fixed statistics of data set I, and the gradient
+penalty holds f's slope to 1 in those units, not in φ's own (whose scale ICVF does not control).
 """
 
 from __future__ import annotations
+
+from typing import Callable
 
 import torch
 from torch import nn
@@ -14,13 +18,36 @@ from .config import CriticConfig
 from .nets import mlp
 
 
+MIN_SCALE = 1e-6  # an input that never varies over data set I is centred, not blown up
+
+
 class Critic(nn.Module):
-    def __init__(self, in_dim: int, hidden: tuple[int, ...]):
+    """f(x) = score(standardized(x)); ``standardized`` is the identity unless ``standardize`` (then a fixed shift and
+    scale per input, set by ``fit_standardization`` and saved with the weights)."""
+
+    def __init__(self, in_dim: int, hidden: tuple[int, ...], standardize: bool = False):
         super().__init__()
         self.net = mlp(in_dim, hidden, 1)
+        self.standardize = standardize
+        if standardize:
+            self.register_buffer("shift", torch.zeros(in_dim))
+            self.register_buffer("scale", torch.ones(in_dim))
+
+    def standardized(self, x: torch.Tensor) -> torch.Tensor:
+        return (x - self.shift) / self.scale if self.standardize else x
+
+    def score(self, z: torch.Tensor) -> torch.Tensor:
+        """f on inputs already standardised."""
+        return self.net(z).squeeze(-1)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.net(x).squeeze(-1)
+        return self.score(self.standardized(x))
+
+    @torch.no_grad()
+    def fit_standardization(self, features: torch.Tensor) -> None:
+        """Shift and scale each input to zero mean and unit spread over ``features`` (data set I's pairs)."""
+        self.shift.copy_(features.mean(dim=0))
+        self.scale.copy_(features.std(dim=0).clamp_min(MIN_SCALE))
 
 
 def transition_features(encode: nn.Module, states: torch.Tensor, next_states: torch.Tensor) -> torch.Tensor:
@@ -30,7 +57,7 @@ def transition_features(encode: nn.Module, states: torch.Tensor, next_states: to
     return torch.cat([phi, phi_next - phi], dim=-1)
 
 
-def gradient_penalty(critic: Critic, expert: torch.Tensor, policy: torch.Tensor) -> torch.Tensor:
+def gradient_penalty(critic: Callable[[torch.Tensor], torch.Tensor], expert: torch.Tensor, policy: torch.Tensor) -> torch.Tensor:
     """WGAN-GP: mean (‖∇f(x̂)‖₂ − 1)² at per-sample interpolates of expert and policy inputs."""
     epsilon = torch.rand(expert.shape[0], 1, device=expert.device)
     mixed = (epsilon * expert + (1.0 - epsilon) * policy).requires_grad_(True)
@@ -40,11 +67,12 @@ def gradient_penalty(critic: Critic, expert: torch.Tensor, policy: torch.Tensor)
 
 def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, config: CriticConfig) -> tuple[torch.Tensor, torch.Tensor]:
     """The loss to minimise and the critic's Wasserstein estimate ``E_π f − E_E f``."""
-    f_expert, f_policy = critic(expert), critic(policy)
+    expert, policy = critic.standardized(expert), critic.standardized(policy)
+    f_expert, f_policy = critic.score(expert), critic.score(policy)
     if config.tanh:
         f_expert, f_policy = torch.tanh(f_expert), torch.tanh(f_policy)
     wasserstein = f_policy.mean() - f_expert.mean()
-    return -wasserstein + config.gp_weight * gradient_penalty(critic, expert, policy), wasserstein.detach()
+    return -wasserstein + config.gp_weight * gradient_penalty(critic.score, expert, policy), wasserstein.detach()
 
 
 class DiscriminatorTrainer:

@@ -41,7 +41,10 @@ class AdversarialReward:
         self.labeled = 0  # buffer.count up to which rewards are current
         self.featured = 0  # buffer.count up to which features are cached (a multiple of update_every)
         self.rebuild_to = 0  # after a resume: cache features up to here before they are used
-        self.recent_reward = torch.zeros((), device=expert_features.device)
+        nothing_yet = torch.full((), float("nan"), device=expert_features.device)
+        # at the last update of f, on the latest update_every policy pairs (learning_curve names them)
+        self.recent = {curve.PSEUDO_REWARD: nothing_yet, curve.PSEUDO_REWARD_STD: nothing_yet,
+                       curve.REWARD_SLOPE: nothing_yet, curve.CRITIC_SHIFT: nothing_yet}
 
     def _features(self, buffer: ReplayBuffer, rows: np.ndarray) -> torch.Tensor:
         index = torch.as_tensor(rows, device=self.features.device)
@@ -70,10 +73,23 @@ class AdversarialReward:
         if step % self.update_every == 0:
             self._cache_features(buffer, buffer.count)
             recent = torch.as_tensor(buffer.rows_since(buffer.count - self.update_every), device=self.features.device)
+            f_before = self.trainer.critic(self.features[recent])
             with torch.enable_grad():
                 self.trainer.train(self.expert_features, self.features[recent], self.update_steps)
             self.relabel(buffer)
-            self.recent_reward = buffer.storage["rewards"][recent].mean()
+            rewards = buffer.storage["rewards"][recent, 0]
+            self.recent = {curve.PSEUDO_REWARD: rewards.mean(), curve.PSEUDO_REWARD_STD: rewards.std(),
+                           curve.REWARD_SLOPE: self._reward_slope(buffer, recent),
+                           curve.CRITIC_SHIFT: (self.trainer.critic(self.features[recent]) - f_before).abs().mean()}
+
+    @torch.enable_grad()
+    def _reward_slope(self, buffer: ReplayBuffer, rows: torch.Tensor) -> torch.Tensor:
+        """Mean ‖∂σ(−f)/∂s'‖ over the pairs ``rows``: how much the reward changes with what the action reaches."""
+        states = buffer.storage["observations"][rows]
+        next_states = buffer.storage["next_observations"][rows].clone().requires_grad_(True)
+        reward = torch.sigmoid(-self.trainer.critic(transition_features(self.encoder, states, next_states)))
+        (slope,) = torch.autograd.grad(reward.sum(), next_states)
+        return slope.norm(dim=-1).mean().detach()
 
     @torch.no_grad()
     def relabel(self, buffer: ReplayBuffer) -> None:
@@ -85,17 +101,16 @@ class AdversarialReward:
     @torch.no_grad()
     def metrics(self, evaluation: Rollouts) -> dict[str, float]:
         """What explains a run at an evaluation: the reward f gives expert, recent-policy and random-policy
-        pairs, the critic's Wasserstein estimate, and whether the pseudo-return ranks the evaluation
-        episodes as their true return does."""
+        pairs, how much it varies over the policy's pairs and how far f moved at its last update, the critic's
+        Wasserstein estimate, and whether the pseudo-return ranks the evaluation episodes as their true return does."""
         reward = self.trainer.reward
         pseudo_returns = np.array([self._pseudo_return(episode.observations) for episode in evaluation.episodes])
         return {
             curve.REWARD_EXPERT: float(reward(self.expert_features).mean()),
-            curve.PSEUDO_REWARD: float(self.recent_reward),  # the latest update_every policy pairs, at the last update of f
             curve.REWARD_RANDOM: float(reward(self.random_features).mean()) if self.random_features is not None else float("nan"),
             curve.WASSERSTEIN: float(self.trainer.last_wasserstein),
             curve.PSEUDO_RETURN_SPEARMAN: spearman(pseudo_returns, evaluation.returns),
-        }
+        } | {name: float(value) for name, value in self.recent.items()}
 
     def _pseudo_return(self, observations: np.ndarray) -> float:
         states = torch.as_tensor(observations, device=self.expert_features.device)
@@ -104,9 +119,11 @@ class AdversarialReward:
     def state_dict(self) -> dict:
         # features are not saved (they can be GBs): the restored buffer holds the current rewards,
         # and the feature cache is rebuilt from the restored observations on the next step
-        return {"trainer": self.trainer.state_dict(), "labeled": self.labeled, "featured": self.featured, "recent_reward": self.recent_reward}
+        return {"trainer": self.trainer.state_dict(), "labeled": self.labeled, "featured": self.featured, "recent": self.recent}
 
     def load_state_dict(self, state: dict) -> None:
         self.trainer.load_state_dict(state["trainer"])
         self.labeled, self.rebuild_to, self.featured = state["labeled"], state["featured"], 0
-        self.recent_reward = state["recent_reward"].to(self.features.device)
+        # checkpoints written before the reward-spread diagnostics hold only the mean reward
+        recent = state.get("recent", {curve.PSEUDO_REWARD: state.get("recent_reward")})
+        self.recent |= {name: value.to(self.features.device) for name, value in recent.items()}

@@ -22,11 +22,15 @@ REWARDS = {  # column -> legend
     REWARD_RANDOM: "σ(−f) on random-policy pairs",
 }
 WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spearman"
+# how much the reward tells the policy apart (issue 40: a saturated f gives a flat reward), at the last update of f:
+# the spread of σ(−f) over the latest policy pairs, the mean slope ‖∂σ(−f)/∂s'‖ of that reward in the raw next state
+# (through φ: what an action can change), and the mean |Δf| on those pairs over the update (how far f moved)
+PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT = "pseudo_reward_std", "reward_slope_policy", "critic_shift"
 
 # the columns `lwail curve` prints, in this order, where a curve has them (the rest stay in the file)
 TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
          *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
-         "episodes_terminated")
+         PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, "episodes_terminated")
 
 LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
 FIGURES = ("final", "best", "last_10pct_mean", "second_half_mean", "second_half_min")  # curve_figures' keys

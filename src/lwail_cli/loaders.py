@@ -79,7 +79,8 @@ def critic_config(disc: Artifact) -> cfg.CriticConfig:
 
 
 def load_critic(artifact: Artifact, device: torch.device | str = "cpu") -> Critic:
-    critic = Critic(artifact.config["input_dim"], critic_config(artifact).hidden)
+    config = critic_config(artifact)
+    critic = Critic(artifact.config["input_dim"], config.hidden, standardize=config.standardize)
     load_weights(critic, artifact, "critic.safetensors")
     return critic.to(device)
 

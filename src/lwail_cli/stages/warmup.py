@@ -38,7 +38,9 @@ def warmup(
     pick = np.random.default_rng(seed).permutation(len(states))[: config.transitions]
     expert = pair_features(encoder, *expert_states, device)
     policy = pair_features(encoder, states[pick], next_states[pick], device)
-    critic = Critic(expert.shape[1], config.critic.hidden).to(device)
+    critic = Critic(expert.shape[1], config.critic.hidden, standardize=config.critic.standardize).to(device)
+    if config.critic.standardize:  # statistics of all of data set I, not only the pairs f is warmed up against
+        critic.fit_standardization(pair_features(encoder, states, next_states, device))
     trainer = DiscriminatorTrainer(critic, config.critic)
     chunk = max(1, config.steps // PROGRESS_REPORTS)
     for done in range(0, config.steps, chunk):
