@@ -115,7 +115,7 @@ def plot_arms(curves: pd.DataFrame, style: dict[str, tuple[str, str]], path: Pat
                 fell = seed[seed["episodes_terminated"] > 0]
                 ax.scatter(fell["step"], fell["normalized_score"], marker="x", s=14, color=colour, alpha=0.6)
         mean = group.groupby("step")["normalized_score"].mean()
-        ax.plot(mean.index, mean, color=colour, linewidth=2 if counts[arm] > 1 else 0.8, label=f"{label}: {seeds_phrase(counts[arm])}")
+        ax.plot(mean.index, mean, color=colour, linewidth=2 if counts[arm] > 1 else 1.2, label=f"{label}: {seeds_phrase(counts[arm])}")
     if "episodes_terminated" in curves and (curves["episodes_terminated"] > 0).any():
         ax.scatter([], [], marker="x", color="grey", label="× an evaluation where an episode fell")
     same = set(counts.values())
