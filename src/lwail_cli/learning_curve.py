@@ -32,24 +32,32 @@ TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
          *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
          PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, "episodes_terminated")
 
-LAST_FRACTION = 0.1  # "mean over the last 10% of steps"
-FIGURES = ("final", "best", "last_10pct_mean", "second_half_mean", "second_half_min")  # curve_figures' keys
+LAST_FRACTION = 0.1  # "the last 100k" of a 1M-step run: the evaluations after step 0.9·N
+FIGURES = ("at_end", "last_10pct_mean", "second_half_mean", "second_half_min", "best")  # curve_figures' scores
 
 
-def curve_figures(curve: pd.DataFrame, steps: int, final: float | None, column: str = "normalized_score") -> dict[str, float]:
-    """A run's figures from its learning curve: the closing evaluation (else the curve's last point), the best
-    evaluation, the mean over the last 10% of ``steps``, and the mean and the lowest of the evaluations after half
-    of them (the mean is what decides the default φ, docs/algorithm.md; the lowest is how far the network still
-    falls once it has learned: the dips a final score hides)."""
+def curve_figures(curve: pd.DataFrame, steps: int, column: str = "normalized_score") -> dict[str, float]:
+    """A run's figures from its learning curve, each defined here only: the evaluation at the curve's last step (for
+    a finished run of ``steps`` env steps, the row at ``steps``: "at 1M"), the mean of the evaluations after step
+    0.9·``steps`` ("the last 100k"), the mean and the lowest of the evaluations after half of them (the mean is what
+    decides the default φ, docs/algorithm.md; the lowest is how far the network still falls once it has learned: the
+    dips a final score hides), and the best evaluation; with the steps of the lowest and the best."""
     score, step = curve[column], curve["step"]
     later = second_half(curve, steps)[column]
     return {
-        "final": final if final is not None else float(score.iloc[-1]),
-        "best": float(score.max()),
+        "at_end": float(score.iloc[-1]),
         "last_10pct_mean": float(score[step > (1 - LAST_FRACTION) * steps].mean()),
         "second_half_mean": float(later.mean()),
         "second_half_min": float(later.min()),
+        "best": float(score.max()),
+        "second_half_min_step": _step_of(step, later.idxmin, later),
+        "best_step": _step_of(step, score.idxmax, score),
     }
+
+
+def _step_of(step: pd.Series, where, values: pd.Series) -> float:
+    """The step of ``where()`` (idxmin or idxmax of ``values``); nan where no evaluation has a value."""
+    return float(step[where()]) if values.notna().any() else float("nan")
 
 
 def second_half(curve: pd.DataFrame, steps: int) -> pd.DataFrame:

@@ -102,7 +102,7 @@ def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
         except LwailError:  # not a plain name (e.g. name@v2 or a path): an artifact ref
             break
         if live.is_file():
-            return _read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
+            return read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
     policy = store.resolve(ref, "policy")
     curve, path = policy_curve(policy)
     return curve, f"{policy.ref}: {path}"
@@ -112,11 +112,11 @@ def policy_curve(policy: Artifact) -> tuple[pd.DataFrame, Path]:
     """The learning curve a policy artifact holds, and its file."""
     for filename in CURVE_FILES:
         if policy.file(filename).is_file():
-            return _read_curve_file(policy.file(filename)), policy.file(filename)
+            return read_curve_file(policy.file(filename)), policy.file(filename)
     raise LwailError(f"{policy.ref} holds no learning curve")
 
 
-def _read_curve_file(path: Path) -> pd.DataFrame:
+def read_curve_file(path: Path) -> pd.DataFrame:
     try:
         curve = pd.read_csv(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:

@@ -85,20 +85,66 @@ def plot_side_by_side(curves: dict[str, pd.DataFrame], path: Path) -> None:
     _save(fig, path)
 
 
-def plot_critic_by_kind(curves: pd.DataFrame, path: Path, title: str) -> None:
-    """One panel per embedding kind: what the critic says (σ(−f) on expert, latest policy and random pairs, mean over
-    seeds) against env steps. A policy's reward that stays well below the expert's is a gap f still sees; one that
-    reaches it while the return does not is a critic that no longer tells them apart."""
+def _steps_axis(ax) -> None:
+    """Env steps as 200k, 1M rather than in units of 1e6."""
+    from matplotlib.ticker import EngFormatter
+
+    ax.xaxis.set_major_formatter(EngFormatter(sep=""))
+
+
+def seeds_phrase(seeds: int) -> str:
+    return "1 seed" if seeds == 1 else f"mean over {seeds} seeds"
+
+
+def plot_arms(curves: pd.DataFrame, style: dict[str, tuple[str, str]], path: Path, title: str) -> None:
+    """The normalized score against env steps, one colour per arm (``style``: arm -> public name, colour): each
+    seed's curve thin, with a cross where an evaluation episode fell, and the mean over seeds thick. The title says
+    how many seeds each mean is of."""
     plt = _pyplot()
-    kinds = sorted(curves["kind"].unique())
-    fig, axes = plt.subplots(1, len(kinds), figsize=(5 * len(kinds), 3.8), sharey=True, squeeze=False)
-    for ax, kind in zip(axes[0], kinds):
-        group = curves[curves["kind"] == kind]
-        for column, legend in REWARDS.items():
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    counts = {}
+    for arm, (label, colour) in style.items():
+        group = curves[curves["arm"] == arm]
+        if group.empty:
+            continue
+        counts[arm] = group["seed"].nunique()
+        for _, seed in group.groupby("seed"):
+            if counts[arm] > 1:
+                ax.plot(seed["step"], seed["normalized_score"], color=colour, linewidth=0.8, alpha=0.35)
+            if "episodes_terminated" in seed:
+                fell = seed[seed["episodes_terminated"] > 0]
+                ax.scatter(fell["step"], fell["normalized_score"], marker="x", s=14, color=colour, alpha=0.6)
+        mean = group.groupby("step")["normalized_score"].mean()
+        ax.plot(mean.index, mean, color=colour, linewidth=2 if counts[arm] > 1 else 1.2, label=f"{label}: {seeds_phrase(counts[arm])}")
+    if "episodes_terminated" in curves and (curves["episodes_terminated"] > 0).any():
+        ax.scatter([], [], marker="x", color="grey", label="× an evaluation where an episode fell")
+    same = set(counts.values())
+    seeds = seeds_phrase(same.pop()) if len(same) == 1 else "each arm's mean over its seeds (see the legend)"
+    ax.set(xlabel="environment steps", ylabel="normalized score",
+           title=f"{title}\n{seeds}" + ("; thin lines: each seed" if max(counts.values()) > 1 else ""))
+    _steps_axis(ax)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    _save(fig, path)
+
+
+def plot_critic_by_arm(curves: pd.DataFrame, style: dict[str, tuple[str, str]], path: Path, title: str) -> None:
+    """One panel per arm, in its colour: what the critic says (σ(−f) on expert pairs solid, on the latest policy's
+    dashed, on random pairs dotted; mean over seeds) against env steps. A policy's reward that stays well below the
+    expert's is a gap f still sees; one that reaches it while the return does not is a critic that no longer tells
+    them apart."""
+    plt = _pyplot()
+    arms = [arm for arm in style if (curves["arm"] == arm).any()]
+    fig, axes = plt.subplots(1, len(arms), figsize=(5 * len(arms), 3.8), sharey=True, squeeze=False)
+    for ax, arm in zip(axes[0], arms):
+        label, colour = style[arm]
+        group = curves[curves["arm"] == arm]
+        for (column, legend), line in zip(REWARDS.items(), ("-", "--", ":")):
             if column in group and group[column].notna().any():
                 means = group.groupby("step")[column].mean()
-                ax.plot(means.index, means, label=legend)
-        ax.set(title=f"{kind} (n={group['seed'].nunique()})", xlabel="environment steps", ylim=(0, 1))
+                ax.plot(means.index, means, color=colour, linestyle=line, label=legend)
+        ax.set(title=f"{label}: {seeds_phrase(group['seed'].nunique())}", xlabel="environment steps", ylim=(0, 1))
+        _steps_axis(ax)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     axes[0, 0].set(ylabel="reward σ(−f)")
@@ -106,15 +152,18 @@ def plot_critic_by_kind(curves: pd.DataFrame, path: Path, title: str) -> None:
     _save(fig, path)
 
 
-def plot_bands(curves: pd.DataFrame, path: Path, title: str) -> None:
-    """Mean ± std over seeds of the normalized score against env steps, one band per embedding kind."""
+def plot_profile(thresholds, profiles: dict, style: dict[str, tuple[str, str]], path: Path, title: str) -> None:
+    """A performance profile per arm (``profiles``: arm -> ((fraction, low, high), tasks, runs)): the fraction of runs
+    scoring above each threshold, each task weighing the same, with its bootstrap band where there is one."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for kind, group in curves.groupby("kind"):
-        stats = group.groupby("step")["normalized_score"].agg(["mean", "std", "count"]).fillna({"std": 0.0})
-        ax.plot(stats.index, stats["mean"], label=f"{kind} (n={int(stats['count'].max())})")
-        ax.fill_between(stats.index, stats["mean"] - stats["std"], stats["mean"] + stats["std"], alpha=0.25)
-    ax.set(xlabel="environment steps", ylabel="normalized score", title=title)
-    ax.legend()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for arm, ((fraction, low, high), tasks, runs) in profiles.items():
+        label, colour = style[arm]
+        ax.step(thresholds, fraction, where="post", color=colour, label=f"{label}: {runs} runs of {tasks} tasks")
+        if not pd.isna(low).all():
+            ax.fill_between(thresholds, low, high, step="post", color=colour, alpha=0.2)
+    ax.set(xlabel="τ: % of our expert's return", ylabel="fraction of runs above τ", ylim=(-0.02, 1.02))
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     _save(fig, path)

@@ -109,8 +109,22 @@ def sweep(
 
 
 @command(app, "report")
-def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report.")) -> None:
-    """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
+def report(
+    sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report."),
+    curves: Optional[Path] = typer.Option(None, "--curves", help="Read each run's curve from DIR/<plan>_<task>_<arm>_seed<S>.csv (as docs/results holds them) instead of the store; needs the plan file."),
+    out: Optional[Path] = typer.Option(None, "--out", help="With --curves: the folder for the figures (default: the --curves folder)."),
+) -> None:
+    """A sweep's report: per task and arm over seeds mean ± std, IQM with a 95% bootstrap interval and % of our
+    expert; across tasks the IQM and a performance profile; curves. From the store, or with --curves from committed
+    curve files alone."""
+    if curves is not None:
+        if not Path(sweep_ref).is_file():
+            raise LwailError(f"--curves reads no store: give the plan file (e.g. plans/paper-table.toml), not {sweep_ref!r}")
+        table, written = report_stage.report_from_curves(plan=read_plan(Path(sweep_ref)), folder=curves, out=out or curves)
+        for path in written:
+            typer.echo(f"wrote {path}")
+        typer.echo(table)
+        return
     s = store()
     if Path(sweep_ref).is_file():
         plan = read_plan(Path(sweep_ref))

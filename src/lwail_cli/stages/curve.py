@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..config import POLICY_NETWORKS
-from ..learning_curve import curve_figures, second_half
+from ..learning_curve import curve_figures
 from ..plots import plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
@@ -33,12 +33,10 @@ def summary_lines(curve: pd.DataFrame) -> list[str]:
     ]
     lines = []
     for label, column in columns:
-        figures = curve_figures(curve, steps, None, column)
-        later = second_half(curve, steps)
-        lowest_at = int(later.loc[later[column].idxmin(), "step"])
+        figures = curve_figures(curve, steps, column)
         lines.append(
-            f"{label}, {column} over {steps} steps: last {figures['final']:.1f} · best {figures['best']:.1f} · "
+            f"{label}, {column} over {steps} steps: last {figures['at_end']:.1f} · best {figures['best']:.1f} · "
             f"mean of the last 10% {figures['last_10pct_mean']:.1f} · after half the steps: mean "
-            f"{figures['second_half_mean']:.1f}, lowest {figures['second_half_min']:.1f} (step {lowest_at})"
+            f"{figures['second_half_mean']:.1f}, lowest {figures['second_half_min']:.1f} (step {figures['second_half_min_step']:.0f})"
         )
     return lines

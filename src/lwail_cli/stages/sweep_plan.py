@@ -5,7 +5,7 @@ An entry of ``embeddings`` is a kind (icvf, identity) or the name of a variant, 
 its kind and its own overrides of the stages after collect (an ablation such as φ with LayerNorm is one more arm
 of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
 plan, run after the first grid and reported with it. Every artifact of a run is named after the sweep, task, seed
-and arm.
+and arm; ``[labels]`` gives an arm the public name the report's tables and figures show (the arm's own by default).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from .demos import bundled_demos_path
 PLAN_STAGES = (*CHAIN, "eval")
 EMBEDDINGS = ("icvf", "identity")
 GRID_KEYS = {"tasks", "seeds", "embeddings"}
-PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads"}
+PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
 
 
@@ -61,6 +61,7 @@ class SweepPlan:
     overrides: dict  # stage -> tuple of section.field=value assignments
     variants: dict = field(default_factory=dict)  # name -> {"kind": icvf|identity, stage: assignments}
     threads: int = 1  # CPUs (Ray) and torch threads per run: 1 when runs share the cores, more for a lone run
+    labels: dict = field(default_factory=dict)  # arm -> its public name in the report (e.g. "no embedding")
 
     @property
     def runs(self) -> list[SweepRun]:
@@ -79,6 +80,9 @@ class SweepPlan:
     def data_sets(self) -> list[tuple[str, int]]:
         """The (task, seed) of each data set I, shared by the runs of every arm of that task and seed."""
         return list(dict.fromkeys((run.task, run.seed) for run in self.runs))
+
+    def label(self, arm: str) -> str:
+        return self.labels.get(arm, arm)
 
     def embedding_kind(self, arm: str) -> str:
         return self.variants[arm]["kind"] if arm in self.variants else arm
@@ -104,7 +108,8 @@ class SweepPlan:
 
     def to_dict(self) -> dict:
         also = {"also": [grid.to_dict() for grid in self.grids[1:]]} if len(self.grids) > 1 else {}
-        return {"name": self.name, **self.grids[0].to_dict(), **also,
+        labels = {"labels": dict(self.labels)} if self.labels else {}
+        return {"name": self.name, **self.grids[0].to_dict(), **also, **labels,
                 "set": {stage: list(assignments) for stage, assignments in self.overrides.items()},
                 "variants": {name: {key: value if key == "kind" else list(value) for key, value in variant.items()}
                              for name, variant in self.variants.items()}, "threads": self.threads}
@@ -141,7 +146,13 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
     threads = raw.get("threads", 1)
     if isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= 256:
         raise LwailError(f"{source}: 'threads' must be an integer from 1 to 256 (CPUs per run), got {threads!r}")
-    plan = SweepPlan(name, grids, _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads)
+    labels = raw.get("labels", {})
+    arms = {kind for grid in grids for kind in grid.kinds}
+    if not isinstance(labels, dict) or not all(isinstance(label, str) and label.strip() for label in labels.values()):
+        raise LwailError(f"{source}: [labels] must map arms to non-empty public names, e.g. identity = \"no embedding\"")
+    if not set(labels) <= arms:
+        raise LwailError(f"{source}: [labels] names {sorted(set(labels) - arms)}, which are not arms of the plan ({sorted(arms)})")
+    plan = SweepPlan(name, grids, _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads, labels)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
     for stage in PLAN_STAGES:

@@ -1,0 +1,136 @@
+"""`lwail report`: a run's figures, the IQM and its stratified-bootstrap interval, the performance profile, and the
+report rebuilt from committed curve files alone (`--curves`)."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("scipy")
+
+PLAN = '''name = "tiny"
+tasks = ["InvertedPendulum-v5"]
+seeds = [0, 1]
+embeddings = ["icvf", "identity"]
+[set]
+imitate = ["train.steps=1000"]
+[labels]
+identity = "no embedding"
+'''
+
+
+def test_a_runs_figures_are_defined_once_from_its_curve():
+    from lwail_cli.learning_curve import curve_figures
+
+    # 10 evaluations of a 1,000-step run; a dip at 700 (second half) and a worse one at 300 (first half)
+    scores = [5.0, 20.0, 10.0, 60.0, 80.0, 90.0, 40.0, 95.0, 100.0, 98.0]
+    curve = pd.DataFrame({"step": range(100, 1001, 100), "normalized_score": scores})
+    assert curve_figures(curve, 1000) == {"at_end": 98.0, "last_10pct_mean": 98.0, "second_half_mean": 84.6,
+                                          "second_half_min": 40.0, "best": 100.0, "second_half_min_step": 700.0,
+                                          "best_step": 900.0}
+    # "the last 10%" is the evaluations after step 0.9·N: of a 2,000-step curve, the mean of 1,900 and 2,000
+    longer = pd.DataFrame({"step": range(100, 2001, 100), "normalized_score": range(20)})
+    assert curve_figures(longer, 2000)["last_10pct_mean"] == 18.5
+
+
+def test_the_iqm_of_a_known_table_and_its_interval():
+    from lwail_cli import statistics
+
+    # two tasks of four runs: the IQM drops the lowest and highest quarter of the eight, 1, 2 and 7, 8
+    by_task = [np.array([1.0, 2.0, 3.0, 4.0]), np.array([5.0, 6.0, 7.0, 8.0])]
+    assert statistics.pooled_iqm(by_task) == 4.5
+    assert statistics.pooled_iqm([np.array([1.0, 2.0, 30.0])]) == 11.0  # of three runs: their mean
+    low, high = statistics.iqm_interval(by_task)
+    assert low < 4.5 < high and (low, high) == statistics.iqm_interval(by_task)  # a fixed bootstrap seed
+    # each task resampled on its own: no resample mixes the tasks' runs, so the IQM can never fall to task 1's level
+    assert low > 2.5 and high < 6.5
+    assert all(np.isnan(statistics.iqm_interval([np.array([1.0, 2.0]), np.array([5.0])])))  # one run cannot be resampled
+
+    draws = np.random.default_rng(1).normal(50.0, 10.0, size=40)
+    few, many = statistics.iqm_interval([draws[:5]]), statistics.iqm_interval([draws])
+    assert many[1] - many[0] < few[1] - few[0]  # more seeds, a narrower interval
+
+
+def test_a_performance_profile_counts_the_runs_above_each_threshold_each_task_weighing_the_same():
+    from lwail_cli import statistics
+
+    by_task = [np.array([10.0, 30.0]), np.array([50.0, 70.0, 90.0, 110.0])]
+    profile, low, high = statistics.performance_profile(by_task, np.array([0.0, 20.0, 60.0, 100.0, 120.0]))
+    np.testing.assert_allclose(profile, [1.0, 0.75, 0.375, 0.125, 0.0])
+    assert (low <= profile).all() and (profile <= high).all() and low[1] < high[1]
+
+
+def _write_curve(path: Path, scores, fell=()):
+    steps = list(range(100, 100 * len(scores) + 1, 100))
+    pd.DataFrame({"step": steps, "wall_time": [s / 10 for s in steps], "return_mean": [10.0 * s for s in scores],
+                  "normalized_score": scores, "episodes_terminated": [int(step in fell) for step in steps]}).to_csv(path, index=False)
+
+
+def test_the_report_is_rebuilt_from_committed_curve_files(cli, tmp_path):
+    plan, curves, out = tmp_path / "tiny.toml", tmp_path / "results", tmp_path / "figures"
+    plan.write_text(PLAN)
+    curves.mkdir()
+    ramp = [10.0 * i for i in range(1, 9)]
+    _write_curve(curves / "tiny_invertedpendulum-v5_icvf_seed0.csv", ramp + [80.0, 90.0], fell=(700,))
+    _write_curve(curves / "tiny_invertedpendulum-v5_icvf_seed1.csv", ramp + [60.0, 70.0])
+    _write_curve(curves / "tiny_invertedpendulum-v5_identity_seed0.csv", ramp + [40.0, 50.0])
+    _write_curve(curves / "tiny_invertedpendulum-v5_identity_seed1.csv", ramp)  # to step 800 of 1,000: not finished
+    _write_curve(curves / "other_invertedpendulum-v5_identity_seed1.csv", [1.0] * 10)  # another plan's
+    result = cli("report", plan, "--curves", curves, "--out", out)
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    # icvf: the last 10% (step > 900) and the end are 90 and 70; after half (600..1000) means 76 and 68, lowest 60
+    assert "| InvertedPendulum-v5 | icvf | 2 | 80.0 ± 14.1 | 80.0 [70.0, 90.0] | 80.0 ± 14.1 | 72.0 ± 5.7 | 60.0 | 2 min, 10 | — |" in lines
+    assert "| InvertedPendulum-v5 | no embedding | 1 | 50.0 | 50.0 | 50.0 | 60.0 | 40.0 | 2 min, 10 | — |" in lines  # one seed: no interval
+    # % of the bundled expert's 1,000: the curve's returns are 10 × the score
+    assert "| InvertedPendulum-v5 | icvf | 2 | 1,000 | 80.0 ± 14.1 | 80.0 [70.0, 90.0] | 70.0 | 80.0 ± 14.1 | 72.0 ± 5.7 |" in lines
+    assert "| InvertedPendulum-v5 | icvf | 0 | 90.0 | 90.0 | 76.0 | 60.0 (600) | 90.0 (1k) | 1 of 5 | 90.0 | 2 min, 10 |" in lines
+    assert "| icvf | 1 | 2 | 80.0 [70.0, 90.0] | 80.0 [70.0, 90.0] |" in lines and "| no embedding | 1 | 1 | 50.0 | 50.0 |" in lines
+    assert sorted(path.name for path in out.iterdir()) == ["tiny_invertedpendulum-v5_curves.png", "tiny_profile.png"]
+
+
+@pytest.mark.parametrize("setup, message", [
+    (lambda folder: None, "holds no curve of plan tiny that reached its last step (looked for tiny_<task>_<arm>_seed<S>.csv"),
+    (lambda folder: _write_curve(folder / "tiny_invertedpendulum-v5_icvf_seed0.csv", [1.0] * 5), "holds no curve of plan tiny"),
+])
+def test_a_folder_without_the_plans_curves_is_one_clear_line(cli, tmp_path, setup, message):
+    plan, curves = tmp_path / "tiny.toml", tmp_path / "results"
+    plan.write_text(PLAN)
+    curves.mkdir()
+    setup(curves)
+    result = cli("report", plan, "--curves", curves)
+    assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output, result.output
+    assert cli("report", "tiny", "--curves", curves).output.count("give the plan file") == 1
+
+
+def test_a_plans_labels_name_its_arms_and_are_checked(tmp_path):
+    import tomllib
+
+    from lwail_cli.errors import LwailError
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    plan = plan_from_dict(tomllib.loads(PLAN), "test plan")
+    assert (plan.label("identity"), plan.label("icvf")) == ("no embedding", "icvf")
+    assert plan_from_dict(plan.to_dict(), "a report's record") == plan
+    with pytest.raises(LwailError, match=r"\[labels\] names \['pca'\], which are not arms"):
+        plan_from_dict(tomllib.loads(PLAN.replace("identity = ", "pca = ")), "test plan")
+    with pytest.raises(LwailError, match="non-empty public names"):
+        plan_from_dict(tomllib.loads(PLAN.replace('"no embedding"', '""')), "test plan")
+
+
+def test_the_papers_figure_is_an_arms_embedding_kinds_and_demos_without_returns_have_no_percentage():
+    import tomllib
+
+    from lwail_cli.stages.report import RunCurve, markdown, tables
+    from lwail_cli.stages.sweep_plan import SweepRun, plan_from_dict
+
+    plan = plan_from_dict(tomllib.loads(PLAN.replace("InvertedPendulum-v5", "Walker2d-v5").replace('"icvf", "identity"', '"icvf-authors", "identity"')
+                                        + '[variants.icvf-authors]\nkind = "icvf"\n'), "test plan")
+    curve = pd.DataFrame({"step": range(100, 1001, 100), "wall_time": 60.0, "return_mean": 1.0, "normalized_score": 50.0})
+    curves = [RunCurve(SweepRun("Walker2d-v5", seed, arm), curve, float("nan"), "test") for arm in ("icvf-authors", "identity") for seed in (0, 1)]
+    lines = markdown(*tables(plan, curves)).splitlines()
+    # a variant of icvf is compared with the paper's LWAIL, the identity with its no-embedding figure
+    assert lines[4].startswith("| Walker2d-v5 | icvf-authors | 2 | 50.0 ± 0.0 | 50.0 [50.0, 50.0] |") and lines[4].endswith("| 106.5 ± 1.1 |")
+    assert lines[5].startswith("| Walker2d-v5 | no embedding | 2 |") and lines[5].endswith("| 62.4 ± 20.4 |")
+    assert "| Walker2d-v5 | no embedding | 2 | — | — | — | — | — | — |" in lines  # no expert return: no % of it
