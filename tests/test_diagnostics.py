@@ -7,6 +7,7 @@ import torch
 from safetensors.torch import load_file
 
 from lwail_cli import config as cfg
+from lwail_cli import learning_curve
 from lwail_cli.data import Episode
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer
 from lwail_cli.icvf import Encoder, probe_critic_needs
@@ -168,3 +169,17 @@ def test_imitate_writes_the_target_actor_by_default(stages):
     assert not torch.equal(written["net.0.weight"], agent["actor"]["net.0.weight"])
     curve = pd.read_csv(finished.file("learning_curve.csv"))
     assert curve[["normalized_score", "actor_normalized_score"]].notna().all().all()
+
+
+@pytest.mark.parametrize("steps, wasserstein, warned", [
+    ((100_000, 150_000, 160_000), (1.99, 1.97, 1.80), True),  # judged at the first evaluation from 150k on
+    ((100_000, 150_000, 160_000), (1.99, 1.90, 1.99), False),
+    ((50_000, 100_000), (1.99, 1.99), False),  # too early to tell
+])
+def test_a_critic_still_saturated_at_150k_steps_is_flagged(steps, wasserstein, warned):
+    curve = pd.DataFrame({"step": steps, "wasserstein_estimate": wasserstein, "reward_expert_mean": 0.99, "pseudo_reward_mean": 0.01})
+    note = learning_curve.saturated_critic(curve)
+    assert (note is not None) == warned
+    if warned:
+        assert note.startswith("warning: f is saturated at step 150000 (Wasserstein estimate 1.970")
+    assert learning_curve.saturated_critic(curve.drop(columns="wasserstein_estimate")) is None  # an expert's curve
