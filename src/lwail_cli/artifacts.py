@@ -24,7 +24,7 @@ from typing import Iterator
 from .envs import EnvInfo
 from .errors import LwailError
 from .manifests import KINDS, MANIFEST, file_hash, malformed, manifest_hash, new_manifest, read_manifest
-from .names import check_name, parse_ref
+from .names import check_name, closest, parse_ref
 from .run_area import RunArea, abandoned_by
 
 COMMIT_TRIES = 100  # version numbers tried before giving up on a store that other writers keep filling
@@ -131,7 +131,8 @@ class Store:
                 elsewhere = [k for k in KINDS if k != ref_kind and (self.root / k / name).is_dir()]
                 if elsewhere:
                     raise LwailError(f"{ref!r} is a {elsewhere[0]} artifact, but a {kind} is needed here")
-                raise LwailError(f"no {ref_kind} artifact named {name!r} in store {self.root}")
+                raise LwailError(f"no {ref_kind} artifact named {name!r} in store {self.root}; "
+                                 f"{closest(name, self._names(ref_kind), f'{ref_kind} artifacts')}")
             versions = self._versions(ref_kind, name)
             if not versions:
                 raise LwailError(f"no committed version of {ref_kind}/{name} in store {self.root}")
@@ -155,14 +156,25 @@ class Store:
             return None
 
     def resolve_any(self, ref: str) -> Artifact:
-        """``kind/name[@vN]`` or an artifact path, whatever its kind."""
+        """``name[@vN]`` (a name only one kind holds), ``kind/name[@vN]`` or an artifact path, whatever its kind."""
         path = Path(ref)
         if (path / MANIFEST).is_file():
             return self._load(path)
-        kind = ref.split("/")[0] if "/" in ref else None
-        if kind not in KINDS:
-            raise LwailError(f"give kind/name (e.g. policy/hopper-v5-expert) or an artifact path, not {ref!r}")
-        return self.resolve(ref, kind)
+        parsed = parse_ref(ref)
+        if parsed is None:
+            raise LwailError(f"{ref!r} is neither an artifact path nor a name like 'hopper', 'hopper@v2' or 'policy/hopper@v2'")
+        kind, name, _ = parsed
+        if kind is not None:
+            if kind not in KINDS:
+                raise LwailError(f"unknown artifact kind {kind!r} in {ref!r}; {closest(kind, list(KINDS), 'kinds')}")
+            return self.resolve(ref, kind)
+        holding = [k for k in KINDS if self._versions(k, name)]
+        if len(holding) > 1:
+            raise LwailError(f"{name!r} names artifacts of {len(holding)} kinds: give one of {', '.join(f'{k}/{ref}' for k in holding)}")
+        if not holding:
+            names = sorted({n for k in KINDS for n in self._names(k)})
+            raise LwailError(f"no artifact named {name!r} in store {self.root}; {closest(name, names, 'artifacts')}")
+        return self.resolve(ref, holding[0])
 
     def resolve_parent(self, child: Artifact, kind: str) -> Artifact | None:
         """The direct parent of ``kind`` a child was made from, refused if it changed since (None if it has none)."""
@@ -194,6 +206,11 @@ class Store:
 
     def _load(self, path: Path) -> Artifact:
         return Artifact(path=path, manifest=read_manifest(path))
+
+    def _names(self, kind: str) -> list[str]:
+        """The names of ``kind`` with at least one committed version."""
+        folder = self.root / kind
+        return sorted(p.name for p in folder.iterdir() if self._versions(kind, p.name)) if folder.is_dir() else []
 
     def _versions(self, kind: str, name: str) -> list[int]:
         folder = self.root / kind / name

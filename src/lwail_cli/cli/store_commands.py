@@ -9,6 +9,7 @@ import typer
 
 from .. import config as cfg
 from ..errors import LwailError
+from ..names import closest
 from .app import app, command, fmt, store
 
 
@@ -34,7 +35,7 @@ def list_artifacts() -> None:
 
 
 @command(app, "show")
-def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.")) -> None:
+def show(ref: str = typer.Argument(..., help="name, name@vN (either kind/-prefixed where two kinds share the name) or a path.")) -> None:
     """Print one artifact's manifest."""
     typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
 
@@ -55,7 +56,7 @@ def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a
 def defaults(stage: Optional[str] = typer.Argument(None, help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
     """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
     if stage is not None and stage not in cfg.STAGES:
-        raise LwailError(f"unknown stage {stage!r}; one of {', '.join(cfg.STAGES)}")
+        raise LwailError(f"unknown stage {stage!r}; {closest(stage, list(cfg.STAGES), 'stages')}")
     for name, config_type in cfg.STAGES.items():
         if stage in (None, name):
             typer.echo(f"# {name}\n{cfg.describe(config_type())}")

@@ -15,6 +15,7 @@ from ..errors import LwailError
 from ..formats.npz import npz_load_bytes, read_npz, write_npz
 from ..formats.sb3_zip import read_sb3_policy
 from ..loaders import load_demos, load_policy, policy_fn
+from ..names import closest
 from ..rollout import rollout
 from ..video import filmed_rollout
 from .shared import default_name, read_external, require_memory
@@ -74,7 +75,7 @@ def bundled_demos_path(env_id: str) -> Path:
     path = folder / f"{env_id}.npz"
     if not path.is_file():
         available = sorted(p.name[:-4] for p in folder.iterdir() if p.name.endswith(".npz"))
-        raise LwailError(f"no bundled demos for {env_id}; bundled: {', '.join(available) or 'none'}")
+        raise LwailError(f"no bundled demos for {env_id}; {closest(env_id, available, 'tasks with bundled demos')}")
     return Path(str(path))
 
 
