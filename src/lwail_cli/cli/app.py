@@ -159,6 +159,11 @@ def refuse_unread_settings(config, seed: int, *, settings: str, reader: str) -> 
         raise LwailError(f"{settings} and --seed are for {reader}; an import takes the file as it is")
 
 
+def warn(lines: list[str]) -> None:
+    for line in lines:
+        typer.echo(f"warning: {line}", err=True)
+
+
 def say_written(artifact) -> None:
     typer.echo(f"wrote {artifact.ref}  ({artifact.path})")
     if artifact.metrics:

@@ -16,12 +16,13 @@ from ..loaders import read_curve
 from ..stages import curve as curve_stage
 from ..stages import evaluate as evaluate_stage
 from ..stages import export as export_stage
+from ..stages import online as online_stage
 from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import sweep as sweep_stage
 from ..stages.sweep_plan import plan_from_dict, read_plan
 from ..stages.shared import resolve_device
-from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store
+from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store, warn
 
 
 @command(app, "eval", config=cfg.EvalConfig)
@@ -45,7 +46,7 @@ def _say_evaluation(result: dict) -> None:
     if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
     if result.get("not_logged"):
-        typer.echo(f"warning: not appended to evals.csv: {result['not_logged']}", err=True)
+        warn([f"not appended to evals.csv: {result['not_logged']}"])
 
 
 @command(app, "curve")
@@ -80,6 +81,7 @@ def quickstart(
 ) -> None:
     """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
     plan = quickstart_stage.quickstart_plan(env_id, steps)
+    warn(online_stage.budget_warnings(plan.imitation))
     s = store()
     typer.echo(f"quickstart on {env_id} into store {s.root}")
     result = quickstart_stage.quickstart(
