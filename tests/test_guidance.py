@@ -25,3 +25,44 @@ def test_a_budget_that_cannot_train_or_be_watched_is_warned_and_still_runs(cli, 
     shown = [line for line in result.output.splitlines() if line.startswith("warning: ")]
     assert len(shown) == len(warnings) and all(line.startswith(f"warning: {w}") for line, w in zip(shown, warnings)), shown
     assert store.resolve("invertedpendulum-v5-expert", "policy").metrics["env_steps"] == int(budget[1])
+
+
+def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
+    """quickstart itself takes minutes; its closing lines are next_steps(), run here on a tiny expert."""
+    import shlex
+    import subprocess
+    import sys
+
+    from lwail_cli.cli.result_commands import next_steps
+    from lwail_cli.stages.quickstart import quickstart_plan
+
+    assert cli("expert", "train", "InvertedPendulum-v5", "--steps", "60", "--eval-every", "60", "--set", "td3.learning_starts=16", *TINY_TD3).exit_code == 0
+    policy = store.resolve("invertedpendulum-v5-expert", "policy")
+    (_, curve), (_, python), (_, other_task) = next_steps(policy.ref, "InvertedPendulum-v5", store.root)
+
+    program, *arguments = shlex.split(curve)
+    shown = cli(*arguments)
+    assert program == "lwail" and shown.exit_code == 0 and f"{policy.ref}:" in shown.output, shown.output
+    program, flag, code = shlex.split(python)
+    loaded = subprocess.run([sys.executable, flag, code], capture_output=True, text=True, check=True)
+    assert program == "python" and loaded.stdout.strip() == f"Policy({policy.ref}, env=InvertedPendulum-v5)"
+    program, *arguments = shlex.split(other_task)
+    assert program == "lwail" and "quickstart" in arguments
+    quickstart_plan(arguments[arguments.index("--env") + 1], None)  # a task with bundled demos: no error
+
+
+def test_curve_draws_each_run_beside_its_own_curve_never_over_another(cli, store, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the folder a user runs lwail from keeps nothing
+    for seed in ("0", "1"):  # two versions of one name, with different curves
+        assert cli("expert", "train", "InvertedPendulum-v5", "--name", "p", "--seed", seed, "--steps", "60", "--eval-every", "30",
+                   "--set", "td3.learning_starts=16", "--set", "td3.random_steps=20", *TINY_TD3).exit_code == 0
+    first, second = (store.resolve(f"p@v{version}", "policy") for version in (1, 2))
+    drawn = cli("curve", "p@v1")
+    assert drawn.exit_code == 0 and drawn.output.splitlines()[-1] == f"wrote {first.path / 'curve.png'}"
+    figure = (first.path / "curve.png").read_bytes()
+    assert cli("curve", "p").output.splitlines()[-1] == f"wrote {second.path / 'curve.png'}"
+    assert (first.path / "curve.png").read_bytes() == figure and (second.path / "curve.png").read_bytes() != figure
+    assert cli("curve", "p@v1", "p@v2").output.splitlines()[-1] == f"wrote {first.path / 'curve+p_v2.png'}"
+    assert cli("curve", "p", "--out", tmp_path / "mine.png").output.splitlines()[-1] == f"wrote {tmp_path / 'mine.png'}"
+    assert sorted(path.name for path in tmp_path.iterdir() if path.suffix == ".png") == ["mine.png"]
+    assert "0 damaged" in cli("verify").output  # a figure beside an artifact is outside its hash

@@ -83,11 +83,16 @@ class Artifact:
     def file(self, name: str) -> Path:
         return self.path / name
 
+    def beside(self, filename: str) -> Path:
+        """A file kept beside the artifact's data and outside its hash (an evaluation log, a figure drawn later);
+        never one of its data files or its manifest."""
+        if filename in self.manifest["files"] or filename == MANIFEST:
+            raise LwailError(f"{filename} is a data file of {self.ref} and cannot be written beside it")
+        return self.path / filename
+
     def append_log(self, filename: str, row: dict) -> Path:
         """Append a row to a CSV that sits beside the artifact's data (not part of its hash)."""
-        if filename in self.manifest["files"] or filename == MANIFEST:
-            raise LwailError(f"{filename} is a data file of {self.ref} and cannot be appended to")
-        target = self.path / filename
+        target = self.beside(filename)
         new = not target.exists()
         with open(target, "a", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(row))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import re
+import shlex
 import sys
 import time
 from contextlib import contextmanager
@@ -53,6 +54,12 @@ def resume_option(config_class: type, run: str) -> typer.Option:
 
 def store() -> Store:
     return Store(_state["store"])
+
+
+def lwail_line(arguments: str) -> str:
+    """``lwail ARGUMENTS`` as the user would type it next, with the --store this command was given (if any)."""
+    given = _state["store"]
+    return f"lwail --store {shlex.quote(str(given))} {arguments}" if given is not None else f"lwail {arguments}"
 
 
 def _print_version(value: bool) -> None:

@@ -3,7 +3,7 @@ report, and export to another toolkit."""
 
 from __future__ import annotations
 
-import re
+import shlex
 from pathlib import Path
 from typing import Optional
 
@@ -12,7 +12,7 @@ import typer
 from .. import config as cfg
 from .. import learning_curve
 from ..errors import LwailError
-from ..loaders import read_curve
+from ..loaders import curve_figure_path, read_curve
 from ..stages import curve as curve_stage
 from ..stages import evaluate as evaluate_stage
 from ..stages import export as export_stage
@@ -22,7 +22,7 @@ from ..stages import report as report_stage
 from ..stages import sweep as sweep_stage
 from ..stages.sweep_plan import plan_from_dict, read_plan
 from ..stages.shared import resolve_device
-from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store, warn
+from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
 
 
 @command(app, "eval", config=cfg.EvalConfig)
@@ -52,7 +52,7 @@ def _say_evaluation(result: dict) -> None:
 @command(app, "curve")
 def curve(
     refs: list[str] = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
-    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder, refs joined by '+')."),
+    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: curve.png beside the run's curve, in its policy artifact or, while it runs, in the run area; several runs: curve+<the others>.png beside the first's)."),
 ) -> None:
     """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill; with several
     runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
@@ -65,7 +65,7 @@ def curve(
         for line in curve_stage.summary_lines(history):
             typer.echo(line)
         histories[ref] = history
-    path = out or Path(re.sub(r"[^A-Za-z0-9._+-]", "_", "+".join(refs)) + "-curve.png")
+    path = out or curve_figure_path(store(), refs=refs)
     if len(histories) == 1:
         typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
     else:
@@ -88,6 +88,21 @@ def quickstart(
         s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
     )
     _say_evaluation(result)
+    typer.echo(f"\nevery artifact above is in {s.root} (`lwail ls` lists them). Next:")
+    for why, line in next_steps(result["policy"], env_id, s.root):
+        typer.echo(f"  # {why}\n  {line}")
+
+
+def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str, str]]:
+    """What to run after quickstart, each (why, command line): the run's curve, its policy in Python, another task."""
+    other = next(task for task in ("Hopper-v5", "Walker2d-v5") if task != env_id)
+    python = f"from lwail_cli import load_policy; print(load_policy({policy_ref!r}, store={str(store_root)!r}))"
+    return [
+        ("the run's learning curve: a table, and a figure beside the policy", lwail_line(f"curve {policy_ref}")),
+        ("the policy in Python: .predict(obs) as in Stable-Baselines3 (docs/usage.md#python)", f"python -c {shlex.quote(python)}"),
+        ("the chain on another task (--steps: a shorter run); your own task: the README's stages",
+         lwail_line(f"quickstart --env {other} --steps 200000")),
+    ]
 
 
 @command(app, "sweep")
