@@ -66,3 +66,19 @@ def test_curve_draws_each_run_beside_its_own_curve_never_over_another(cli, store
     assert cli("curve", "p", "--out", tmp_path / "mine.png").output.splitlines()[-1] == f"wrote {tmp_path / 'mine.png'}"
     assert sorted(path.name for path in tmp_path.iterdir() if path.suffix == ".png") == ["mine.png"]
     assert "0 damaged" in cli("verify").output  # a figure beside an artifact is outside its hash
+
+
+def test_importing_the_same_demos_again_keeps_the_version_that_holds_them(cli, store, tmp_path):
+    from conftest import committed_versions, write_states_npz
+
+    first = cli("demos", "import", "InvertedPendulum-v5", "--bundled")
+    assert first.exit_code == 0 and first.output.startswith("wrote demos/invertedpendulum-v5-bundled-demos@v1")
+    again = cli("demos", "import", "InvertedPendulum-v5", "--bundled")
+    kept = store.resolve("invertedpendulum-v5-bundled-demos", "demos")
+    assert again.exit_code == 0 and again.output.startswith(f"already in the store: {kept.ref}  ({kept.path}) holds the same content")
+    assert committed_versions(store) == [("demos", "invertedpendulum-v5-bundled-demos", [1])]
+    # a file: the same file keeps its version, another file (then the first again) makes a new one
+    for seed, version in ((0, 1), (0, 1), (1, 2), (0, 3)):
+        write_states_npz(tmp_path / "demos.npz", episodes=2, obs_dim=4, seed=seed)
+        assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "demos.npz", "--name", "mine").exit_code == 0
+        assert store.resolve("mine", "demos").version == version

@@ -17,13 +17,14 @@ import re
 import shutil
 import socket
 import tempfile
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
 from .envs import EnvInfo
 from .errors import LwailError
-from .manifests import KINDS, MANIFEST, file_hash, malformed, manifest_hash, new_manifest, read_manifest
+from .manifests import KINDS, MANIFEST, content_hash, file_hash, malformed, manifest_hash, new_manifest, read_manifest
 from .names import check_name, closest, parse_ref
 from .run_area import RunArea, abandoned_by
 
@@ -40,6 +41,7 @@ class Artifact:
 
     path: Path
     manifest: dict
+    reused: bool = False  # found in the store holding what was about to be written (Store.create(reuse_same_content=True))
 
     @property
     def kind(self) -> str:
@@ -255,8 +257,10 @@ class Store:
         seed: int | None,
         parents: list[Artifact] = (),
         extra: dict | None = None,
+        reuse_same_content: bool = False,
     ) -> Iterator[ArtifactWriter]:
-        """Write a new version atomically; nothing becomes visible unless the block completes."""
+        """Write a new version atomically; nothing becomes visible unless the block completes. With
+        ``reuse_same_content`` (an import), a latest version with the same content hash is kept instead (``reused``)."""
         if kind not in KINDS:
             raise ValueError(f"unknown artifact kind {kind}")
         check_name(name)
@@ -268,9 +272,25 @@ class Store:
         writer = ArtifactWriter(directory)
         try:
             yield writer
-            writer.artifact = self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
+            existing = self._latest_with_same_content(writer, kind, name, env, config) if reuse_same_content else None
+            writer.artifact = existing or self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
         finally:
             shutil.rmtree(directory, ignore_errors=True)
+
+    def _latest_with_same_content(self, writer, kind, name, env, config) -> Artifact | None:
+        """The latest version of ``kind/name`` if its content hash is the one ``writer``'s files would get (only the
+        latest: a name then still refers to what was just written); None if it differs, or is damaged."""
+        versions = self._versions(kind, name)
+        if not versions:
+            return None
+        try:
+            latest = self._load(self.root / kind / name / f"v{versions[-1]}")
+        except LwailError:
+            return None
+        hashes = {str(target.relative_to(writer.directory)): file_hash(target) for target in writer.directory.rglob("*") if target.is_file()}
+        if latest.hash != content_hash(hashes, None if env is None else env.to_dict(), config):
+            return None
+        return dataclasses.replace(latest, reused=True)
 
     def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> Path:
         file_hashes = {}

@@ -121,14 +121,15 @@ def command(parent: typer.Typer, name: str, *, config: type | None = None):
 
 
 @contextmanager
-def progress_bar(description: str, total: int):
-    """A tqdm bar that appears on the first report (so input errors print alone); yields the stages' callback.
-    With --tensorboard, every figure reported (an evaluation's whole CSV row included) is also a scalar."""
+def progress_bar(description: str, total: int, warnings: list[str] = ()):
+    """A tqdm bar that appears on the first report, after the ``warnings`` (so input errors print alone); yields the
+    stages' callback. With --tensorboard, every figure reported (an evaluation's whole CSV row included) is also a scalar."""
     bars: list[tqdm] = []
     scalars = tensorboard_writer(description)
 
     def report(done: int, shown: dict) -> None:
         if not bars:
+            warn(warnings)
             # steps done before the bar appears (a resumed run's, or the first report's) are not counted in its rate
             bars.append(tqdm(total=total, initial=done, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
         bars[0].update(done - bars[0].n)
@@ -172,6 +173,9 @@ def warn(lines: list[str]) -> None:
 
 
 def say_written(artifact) -> None:
+    if artifact.reused:
+        typer.echo(f"already in the store: {artifact.ref}  ({artifact.path}) holds the same content (hash {artifact.hash[:12]}); nothing written")
+        return
     typer.echo(f"wrote {artifact.ref}  ({artifact.path})")
     if artifact.metrics:
         typer.echo("  " + "  ".join(f"{k}={fmt(v)}" for k, v in artifact.metrics.items()))

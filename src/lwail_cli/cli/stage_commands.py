@@ -18,7 +18,7 @@ from ..stages import imitate as imitate_stage
 from ..stages import online as online_stage
 from ..stages import warmup as warmup_stage
 from ..stages.shared import resolve_device
-from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, refuse_unread_settings, resume_option, say_written, store, warn
+from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, refuse_unread_settings, resume_option, say_written, store
 
 
 # ------------------------------------------------------------------------------ data
@@ -56,8 +56,7 @@ def expert_train(
     config: cfg.ExpertConfig,
 ) -> None:
     """Train a TD3 expert on the environment's true reward (the paper's TD3 baseline)."""
-    warn(online_stage.budget_warnings(config))
-    with progress_bar(f"expert {env_id}", config.train.steps) as report:
+    with progress_bar(f"expert {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = expert_stage.train_expert(
             store(), env_id=env_id, config=config, seed=seed, name=name, device=resolve_device(device), resume=resume, on_progress=report
         )
@@ -161,8 +160,7 @@ def imitate(
     config: cfg.ImitationConfig,
 ) -> None:
     """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
-    warn(online_stage.budget_warnings(config))
-    with progress_bar(f"imitate {env_id}", config.train.steps) as report:
+    with progress_bar(f"imitate {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = imitate_stage.imitate(
             store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,
             name=name, device=resolve_device(device), resume=resume, on_progress=report,
