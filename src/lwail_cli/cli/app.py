@@ -14,6 +14,7 @@ from typing import Optional
 
 import typer
 from tqdm import tqdm
+from typer.core import TyperCommand
 
 from ..version import __version__
 from ..artifacts import Store
@@ -22,14 +23,42 @@ from ..names import check_name
 from ..settings import resume_may_change
 from . import shorthands
 
+# help as click writes it (rich_markup_mode=None): plain text that wraps to the terminal, where Rich's tables squeeze
+# each option's help into a narrow column at 80 characters
 app = typer.Typer(
     help="LWAIL: imitate an expert from state-only demonstrations. Stages read and write versioned artifacts.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
+    rich_markup_mode=None,
 )
-expert_app = typer.Typer(help="Train an expert on the true reward and record state-only demonstrations.", no_args_is_help=True)
-demos_app = typer.Typer(help="Import state-only demonstrations.", no_args_is_help=True)
+expert_app = typer.Typer(help="Train an expert on the true reward and record state-only demonstrations.", no_args_is_help=True,
+                         rich_markup_mode=None)
+demos_app = typer.Typer(help="Import state-only demonstrations.", no_args_is_help=True, rich_markup_mode=None)
+
+
+class HelpCommand(TyperCommand):
+    """A command whose help names each argument as its metavar alone, as click does: ``lwail imitate [OPTIONS]
+    ENV_ID`` (typer writes ``{env_id}`` in the usage line and ``ENV_ID <str>`` in the list)."""
+
+    def collect_usage_pieces(self, ctx) -> list[str]:
+        pieces = [self.options_metavar] if self.options_metavar else []
+        return pieces + [_usage_word(param) for param in self.get_params(ctx) if param.param_type_name == "argument"]
+
+    def format_options(self, ctx, formatter) -> None:
+        params = self.get_params(ctx)
+        arguments = [(param.metavar, param.help or "") for param in params if param.param_type_name == "argument"]
+        options = [param.get_help_record(ctx) for param in params if param.param_type_name == "option"]
+        for title, rows in (("Arguments", arguments), ("Options", [row for row in options if row])):
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
+
+
+def _usage_word(argument) -> str:
+    word = argument.metavar.removesuffix("...")
+    word = word if argument.required else f"[{word}]"
+    return word + ("..." if argument.nargs != 1 else "")
 app.add_typer(expert_app, name="expert")
 app.add_typer(demos_app, name="demos")
 
@@ -38,10 +67,10 @@ _state: dict = {"store": None, "tensorboard": None}
 # the largest seed every consumer takes: torch takes up to 2**64 - 1, numpy's SeedSequence any, but numpy's legacy
 # np.random.seed (which a user's environment may call with it) only up to 2**32 - 1
 MAX_SEED = 2**32 - 1
-SEED = typer.Option(0, "--seed", help=f"Random seed (0 to {MAX_SEED}).", min=0, max=MAX_SEED)
-NAME = typer.Option(None, "--name", help="Artifact name (default derived from the env id). A rerun writes a new version.")
-DEVICE = typer.Option("auto", "--device", help="cpu, cuda, cuda:N or auto.")
-VIDEO = typer.Option(None, "--video", help='Write an MP4 of each episode into this folder (headless; needs: pip install "lwail\\[video]").')
+SEED = typer.Option(0, "--seed", metavar="N", help="Random seed.", min=0, max=MAX_SEED)
+NAME = typer.Option(None, "--name", metavar="NAME", help="Artifact name (default derived from the env id). A rerun writes a new version.")
+DEVICE = typer.Option("auto", "--device", metavar="DEVICE", help="cpu, cuda, cuda:N or auto.")
+VIDEO = typer.Option(None, "--video", metavar="DIR", help='Write an MP4 of each episode into this folder (headless; needs: pip install "lwail[video]").')
 
 
 def resume_option(config_class: type, run: str) -> typer.Option:
@@ -70,12 +99,12 @@ def _print_version(value: bool) -> None:
 
 @app.callback()
 def main(
-    store_dir: Optional[Path] = typer.Option(None, "--store", envvar="LWAIL_STORE", help="Artifact store directory (default ./artifacts)."),
+    store_dir: Optional[Path] = typer.Option(None, "--store", envvar="LWAIL_STORE", metavar="DIR", help="Artifact store directory (default ./artifacts)."),
     threads: Optional[int] = typer.Option(
-        None, "--threads", envvar="LWAIL_THREADS", help="CPU threads for torch (default: all cores; use 1 per job when running several).", min=1
+        None, "--threads", envvar="LWAIL_THREADS", metavar="N", help="CPU threads for torch (default: all cores; use 1 per job when running several).", min=1
     ),
     tensorboard: Optional[Path] = typer.Option(
-        None, "--tensorboard", envvar="LWAIL_TENSORBOARD", help="Also write every long stage's figures as TensorBoard scalars under this folder."
+        None, "--tensorboard", envvar="LWAIL_TENSORBOARD", metavar="DIR", help="Also write every long stage's figures as TensorBoard scalars under this folder."
     ),
     version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True, help="Print the version and exit."),
 ) -> None:
@@ -115,7 +144,7 @@ def command(parent: typer.Typer, name: str, *, config: type | None = None):
 
         if config is not None:
             wrapper.__signature__ = shorthands.signature(function, config)
-        return parent.command(name)(wrapper)
+        return parent.command(name, cls=HelpCommand)(wrapper)
 
     return register
 

@@ -27,9 +27,14 @@ from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, sa
 
 @command(app, "eval", config=cfg.EvalConfig)
 def evaluate(
-    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
-    demos: Optional[str] = typer.Option(None, "--demos", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
+    policy: str = typer.Argument(..., metavar="POLICY", help="Policy artifact: name, name@vN or a path."),
+    normalized: bool = typer.Option(False, "--normalized", help=(
+        "Also print the normalized score 100·(R − R_random)/(R_expert − R_random). R_random and R_expert: for Hopper, "
+        "HalfCheetah, Walker2d and Ant (AntNoContactForces too), whatever the version (-v5 included), D4RL's reference "
+        "returns, measured on the -v2 tasks; for other tasks a Minari dataset's ref_min/max_score, else the demos' mean "
+        "return (or the bundled expert's) against a random policy's return measured on 10 episodes. The line printed "
+        "names the reference used.")),
+    demos: Optional[str] = typer.Option(None, "--demos", metavar="REF", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
     video: Optional[Path] = VIDEO,
     *,
     config: cfg.EvalConfig,
@@ -51,8 +56,8 @@ def _say_evaluation(result: dict) -> None:
 
 @command(app, "curve")
 def curve(
-    refs: list[str] = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
-    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: curve.png beside the run's curve, in its policy artifact or, while it runs, in the run area; several runs: curve+<the others>.png beside the first's)."),
+    refs: list[str] = typer.Argument(..., metavar="RUN...", help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
+    out: Optional[Path] = typer.Option(None, "--out", metavar="FILE", help="PNG to write (default: curve.png beside the run's curve, in its policy artifact or, while it runs, in the run area; several runs: curve+<the others>.png beside the first's)."),
 ) -> None:
     """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill; with several
     runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
@@ -74,8 +79,8 @@ def curve(
 
 @command(app, "quickstart")
 def quickstart(
-    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", help="A task with bundled demos."),
-    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", metavar="ENV_ID", help="A task with bundled demos."),
+    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
     seed: int = SEED,
     device: str = DEVICE,
 ) -> None:
@@ -107,8 +112,8 @@ def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str
 
 @command(app, "sweep")
 def sweep(
-    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings, \\[set] overrides per stage and \\[variants.NAME] arms; see plans/."),
-    address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
+    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
 ) -> None:
     """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
     plan = read_plan(plan_file)
@@ -126,7 +131,7 @@ def sweep(
 
 
 @command(app, "report")
-def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report.")) -> None:
+def report(sweep_ref: str = typer.Argument(..., metavar="SWEEP", help="A plan file, or the name of a sweep that has a report.")) -> None:
     """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
     s = store()
     if Path(sweep_ref).is_file():
@@ -143,9 +148,9 @@ def _say_report(artifact) -> None:
 
 @command(app, "export")
 def export(
-    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    out: Path = typer.Option(..., "--out", help="File to write (model.zip for --format sb3)."),
-    fmt: str = typer.Option("sb3", "--format", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
+    policy: str = typer.Argument(..., metavar="POLICY", help="Policy artifact: name, name@vN or a path."),
+    out: Path = typer.Option(..., "--out", metavar="FILE", help="File to write (model.zip for --format sb3)."),
+    fmt: str = typer.Option("sb3", "--format", metavar="FORMAT", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
 ) -> None:
     """Write a policy for another toolkit: the actor as an SB3 TD3 model (its critic freshly initialised)."""
     typer.echo(f"wrote {export_stage.export_policy(store(), policy_ref=policy, fmt=fmt, out=out)}")

@@ -35,13 +35,13 @@ def list_artifacts() -> None:
 
 
 @command(app, "show")
-def show(ref: str = typer.Argument(..., help="name, name@vN (either kind/-prefixed where two kinds share the name) or a path.")) -> None:
+def show(ref: str = typer.Argument(..., metavar="REF", help="name, name@vN (either kind/-prefixed where two kinds share the name) or a path.")) -> None:
     """Print one artifact's manifest."""
     typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
 
 
 @command(app, "verify")
-def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a path (default: every artifact in the store).")) -> None:
+def verify(ref: Optional[str] = typer.Argument(None, metavar="REF", help="name, name@vN, kind/name@vN or a path (default: every artifact in the store).")) -> None:
     """Re-hash every file and manifest of one artifact, or of the whole store; exit 1 if anything is damaged."""
     results = store().verify(ref)
     for path, problem in results:
@@ -53,7 +53,7 @@ def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a
 
 
 @command(app, "defaults")
-def defaults(stage: Optional[str] = typer.Argument(None, help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
+def defaults(stage: Optional[str] = typer.Argument(None, metavar="STAGE", help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
     """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
     if stage is not None and stage not in cfg.STAGES:
         raise LwailError(f"unknown stage {stage!r}; {closest(stage, list(cfg.STAGES), 'stages')}")
