@@ -82,3 +82,27 @@ def test_importing_the_same_demos_again_keeps_the_version_that_holds_them(cli, s
         write_states_npz(tmp_path / "demos.npz", episodes=2, obs_dim=4, seed=seed)
         assert cli("demos", "import", "InvertedPendulum-v5", "--from-file", tmp_path / "demos.npz", "--name", "mine").exit_code == 0
         assert store.resolve("mine", "demos").version == version
+
+
+def test_long_stages_report_progress_smoothly_not_only_when_they_log(store):
+    """The bars (with their rate and time left) move with the work: ICVF every step, not only at its log rows; an
+    online TD3 run every 100 env steps at most, not only at evaluations or every 500."""
+    import torch
+
+    from lwail_cli import config as cfg
+    from lwail_cli.stages import collect, embed, expert
+
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=300), seed=0)
+    reports = []
+    icvf = cfg.ICVFConfig(steps=40, hidden=(8,), embedding_dim=4, batch_size=16, log_every=20)
+    embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=torch.device("cpu"),
+                on_progress=lambda step, shown: reports.append((step, set(shown))))
+    assert [step for step, _ in reports] == list(range(1, 41))
+    assert [step for step, shown in reports if shown == {"loss"}] == [20, 40]  # the loss with each logged row
+
+    steps = []
+    config = cfg.ExpertConfig(td3=cfg.TD3Config(hidden=(8,), batch_size=16, random_steps=20, learning_starts=16),
+                              train=cfg.TrainConfig(steps=450, eval_every=450, eval_episodes=1))
+    expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=0, device=torch.device("cpu"),
+                        on_progress=lambda step, shown: steps.append(step))
+    assert steps[-1] == 450 and max(b - a for a, b in zip([0, *steps], steps)) <= 100, steps

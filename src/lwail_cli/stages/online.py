@@ -29,6 +29,9 @@ if TYPE_CHECKING:
     from ..training import RewardModel
 
 
+PROGRESS_EVERY = 100  # env steps between progress reports: a bar that moves smoothly, at a few updates a second
+
+
 @dataclass(frozen=True)
 class TrainedPolicy:
     state: RunState  # the history of evaluations, the best one and the wall time
@@ -95,7 +98,7 @@ def train_policy(
         info.id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model, reference=reference,
         resume=run.resume, on_checkpoint=run.save_checkpoint,
         on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
-        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
+        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history), progress_every=PROGRESS_EVERY,
     )
     return TrainedPolicy(state, agent)
 
