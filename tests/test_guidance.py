@@ -106,3 +106,66 @@ def test_long_stages_report_progress_smoothly_not_only_when_they_log(store):
     expert.train_expert(store, env_id="InvertedPendulum-v5", config=config, seed=0, device=torch.device("cpu"),
                         on_progress=lambda step, shown: steps.append(step))
     assert steps[-1] == 450 and max(b - a for a, b in zip([0, *steps], steps)) <= 100, steps
+
+
+def test_show_explains_the_metrics_it_prints_and_docs_list_them_all(cli, store):
+    import json
+    from pathlib import Path
+
+    import torch
+
+    from lwail_cli import config as cfg
+    from lwail_cli import glossary
+    from lwail_cli.stages import collect, demos, embed
+
+    bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=300), seed=0)
+    icvf = cfg.ICVFConfig(steps=4, hidden=(8,), embedding_dim=4, batch_size=16, log_every=4)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=torch.device("cpu"),
+                            demos_ref=bundled.ref)
+    shown = cli("show", embedding.name)
+    assert shown.exit_code == 0 and json.loads(shown.stdout) == embedding.manifest  # stdout stays the manifest alone
+    probes = [metric for metric in embedding.metrics if metric.startswith("probe_")]
+    assert {"probe_separation_auc", "probe_progress_spearman", "probe_separation_auc_raw"} <= set(probes)
+    explained = " ".join(shown.stderr.split())
+    assert all(f" {metric} " in explained for metric in probes)
+    assert "separation AUC: how often a random-policy pair" in explained and "progress Spearman: rank correlation" in explained
+
+    usage = (Path(__file__).parents[1] / "docs" / "usage.md").read_text()
+    documented = usage[usage.index("## What the metrics mean"):]
+    assert all(f"`{metric}`" in documented for metric in glossary.METRICS)
+
+
+def test_the_python_example_of_the_docs_runs_on_a_quickstart_store(tmp_path, monkeypatch, capsys):
+    """docs/usage.md#python, run as written from a folder whose ./artifacts holds what quickstart names (tiny budgets)."""
+    from pathlib import Path
+
+    import torch
+
+    from lwail_cli import config as cfg
+    from lwail_cli.artifacts import Store
+    from lwail_cli.stages import collect, demos, embed, imitate, warmup
+
+    monkeypatch.delenv("LWAIL_STORE", raising=False)
+    monkeypatch.chdir(tmp_path)
+    store, cpu, env = Store("artifacts"), torch.device("cpu"), "InvertedPendulum-v5"
+    bundled = demos.import_bundled_demos(store, env_id=env)
+    data = collect.collect(store, env_id=env, config=cfg.CollectConfig(transitions=300), seed=0)
+    icvf = cfg.ICVFConfig(steps=4, hidden=(8,), embedding_dim=4, batch_size=16, log_every=4)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=cpu)
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, seed=0, device=cpu,
+                         config=cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(8,)), steps=2, transitions=100))
+    config = cfg.ImitationConfig(td3=cfg.TD3Config(hidden=(8,), batch_size=16, random_steps=20, learning_starts=16),
+                                 train=cfg.TrainConfig(steps=60, eval_every=60, eval_episodes=1), update_every=30, update_steps=1)
+    imitate.imitate(store, env_id=env, demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config,
+                    seed=0, device=cpu)
+
+    usage = (Path(__file__).parents[1] / "docs" / "usage.md").read_text()
+    section = usage[usage.index("\n## Python\n"):]
+    start = section.index("```python\n") + len("```python\n")
+    code = section[start:section.index("\n```", start)]
+    assert 'store="artifacts"' in code.replace(" ", "") and "load_policy(" in code and "load_reward(" in code
+    exec(compile(code, "docs/usage.md#python", "exec"), {})
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].startswith("Policy(policy/invertedpendulum-v5-lwail@v1, env=InvertedPendulum-v5): return ")
+    assert printed[1].startswith("(100, 4) ")

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import textwrap
 from typing import Optional
 
 import typer
 
 from .. import config as cfg
+from .. import glossary
 from ..errors import LwailError
 from ..names import closest
 from .app import app, command, fmt, store
@@ -36,8 +38,15 @@ def list_artifacts() -> None:
 
 @command(app, "show")
 def show(ref: str = typer.Argument(..., metavar="REF", help="name, name@vN (either kind/-prefixed where two kinds share the name) or a path.")) -> None:
-    """Print one artifact's manifest."""
-    typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
+    """Print one artifact's manifest (JSON, on stdout) and what its metrics mean (on stderr)."""
+    artifact = store().resolve_any(ref)
+    typer.echo(json.dumps(artifact.manifest, indent=2))
+    explained = {metric: glossary.meaning(metric) for metric in artifact.metrics if glossary.meaning(metric)}
+    if explained:
+        typer.echo("\nwhat its metrics mean (docs/usage.md#what-the-metrics-mean):", err=True)
+        width = max(map(len, explained))
+        for metric, text in explained.items():
+            typer.echo(textwrap.fill(text, width=80, initial_indent=f"  {metric.ljust(width)}  ", subsequent_indent=" " * (width + 4)), err=True)
 
 
 @command(app, "verify")
