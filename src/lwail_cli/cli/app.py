@@ -35,6 +35,8 @@ app = typer.Typer(
 expert_app = typer.Typer(help="Train an expert on the true reward and record state-only demonstrations.", no_args_is_help=True,
                          rich_markup_mode=None)
 demos_app = typer.Typer(help="Import state-only demonstrations.", no_args_is_help=True, rich_markup_mode=None)
+app.add_typer(expert_app, name="expert")
+app.add_typer(demos_app, name="demos")
 
 
 class HelpCommand(TyperCommand):
@@ -59,8 +61,7 @@ def _usage_word(argument) -> str:
     word = argument.metavar.removesuffix("...")
     word = word if argument.required else f"[{word}]"
     return word + ("..." if argument.nargs != 1 else "")
-app.add_typer(expert_app, name="expert")
-app.add_typer(demos_app, name="demos")
+
 
 _state: dict = {"store": None, "tensorboard": None}
 
