@@ -17,8 +17,7 @@ import re
 import shutil
 import socket
 import tempfile
-import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
 
@@ -290,7 +289,7 @@ class Store:
         hashes = {str(target.relative_to(writer.directory)): file_hash(target) for target in writer.directory.rglob("*") if target.is_file()}
         if latest.hash != content_hash(hashes, None if env is None else env.to_dict(), config):
             return None
-        return dataclasses.replace(latest, reused=True)
+        return replace(latest, reused=True)
 
     def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> Path:
         file_hashes = {}

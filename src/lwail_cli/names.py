@@ -39,4 +39,3 @@ def closest(name: str, known: list[str], what: str) -> str:
         return f"did you mean {' or '.join(close)}?"
     listed = ", ".join(sorted(known)[:SHOWN]) + (f" and {len(known) - SHOWN} more" if len(known) > SHOWN else "")
     return f"{what}: {listed}"
-

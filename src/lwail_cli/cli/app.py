@@ -49,7 +49,7 @@ class HelpCommand(TyperCommand):
 
     def format_options(self, ctx, formatter) -> None:
         params = self.get_params(ctx)
-        arguments = [(param.metavar, param.help or "") for param in params if param.param_type_name == "argument"]
+        arguments = [(_argument_word(param), param.help or "") for param in params if param.param_type_name == "argument"]
         options = [param.get_help_record(ctx) for param in params if param.param_type_name == "option"]
         for title, rows in (("Arguments", arguments), ("Options", [row for row in options if row])):
             if rows:
@@ -57,8 +57,13 @@ class HelpCommand(TyperCommand):
                     formatter.write_dl(rows)
 
 
+def _argument_word(argument) -> str:
+    """ENV_ID for env_id (a metavar given overrides it)."""
+    return argument.metavar or argument.name.upper()
+
+
 def _usage_word(argument) -> str:
-    word = argument.metavar.removesuffix("...")
+    word = _argument_word(argument).removesuffix("...")
     word = word if argument.required else f"[{word}]"
     return word + ("..." if argument.nargs != 1 else "")
 

@@ -131,7 +131,7 @@ def sweep(
 
 
 @command(app, "report")
-def report(sweep_ref: str = typer.Argument(..., metavar="SWEEP", help="A plan file, or the name of a sweep that has a report.")) -> None:
+def report(sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report.")) -> None:
     """Rebuild a sweep's report (mean ± std over seeds, curves) from the store."""
     s = store()
     if Path(sweep_ref).is_file():
