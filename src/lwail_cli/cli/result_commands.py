@@ -3,6 +3,7 @@ report, and export to another toolkit."""
 
 from __future__ import annotations
 
+import json
 import shlex
 from pathlib import Path
 from typing import Optional
@@ -101,7 +102,8 @@ def quickstart(
 def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str, str]]:
     """What to run after quickstart, each (why, command line): the run's curve, its policy in Python, another task."""
     other = next(task for task in ("Hopper-v5", "Walker2d-v5") if task != env_id)
-    python = f"from lwail_cli import load_policy; print(load_policy({policy_ref!r}, store={str(store_root)!r}))"
+    # double-quoted literals (json.dumps: valid Python), so that the shell's single quotes around them need no escapes
+    python = f"from lwail_cli import load_policy; print(load_policy({json.dumps(policy_ref)}, store={json.dumps(str(store_root))}))"
     return [
         ("the run's learning curve: a table, and a figure beside the policy", lwail_line(f"curve {policy_ref}")),
         ("the policy in Python: .predict(obs) as in Stable-Baselines3 (docs/usage.md#python)", f"python -c {shlex.quote(python)}"),
