@@ -7,6 +7,23 @@ import pytest
 TINY_TD3 = ("--set", "td3.hidden=8", "--set", "td3.batch_size=16", "--set", "train.eval_episodes=1")
 
 
+def tiny_chain(store):
+    """InvertedPendulum's bundled demos, a small random data set, a tiny ICVF φ and a warmed-up f, under quickstart's names."""
+    import torch
+
+    from lwail_cli import config as cfg
+    from lwail_cli.stages import collect, demos, embed, warmup
+
+    cpu, env = torch.device("cpu"), "InvertedPendulum-v5"
+    bundled = demos.import_bundled_demos(store, env_id=env)
+    data = collect.collect(store, env_id=env, config=cfg.CollectConfig(transitions=300), seed=0)
+    icvf = cfg.ICVFConfig(steps=4, hidden=(8,), embedding_dim=4, batch_size=16, log_every=4)
+    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=cpu)
+    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, seed=0, device=cpu,
+                         config=cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(8,)), steps=2, transitions=100))
+    return bundled, embedding, disc
+
+
 @pytest.mark.parametrize(
     "budget, warnings",
     [
@@ -25,6 +42,17 @@ def test_a_budget_that_cannot_train_or_be_watched_is_warned_and_still_runs(cli, 
     shown = [line for line in result.output.splitlines() if line.startswith("warning: ")]
     assert len(shown) == len(warnings) and all(line.startswith(f"warning: {w}") for line, w in zip(shown, warnings)), shown
     assert store.resolve("invertedpendulum-v5-expert", "policy").metrics["env_steps"] == int(budget[1])
+
+
+def test_imitate_warns_of_a_budget_that_never_leaves_its_random_steps(cli, store):
+    bundled, embedding, disc = tiny_chain(store)
+    result = cli("imitate", "InvertedPendulum-v5", "--demos", bundled.name, "--embedding", embedding.name, "--disc", disc.name,
+                 "--steps", "40", "--eval-every", "40", "--set", "td3.learning_starts=16", "--set", "update_every=20", *TINY_TD3)
+    assert result.exit_code == 0, result.output
+    assert [line for line in result.output.splitlines() if line.startswith("warning: ")] == [
+        "warning: --steps 40 is at most td3.random_steps (10000): every action is uniformly random, the policy kept never "
+        "acted (raise --steps or lower --set td3.random_steps=N)"]
+    assert store.resolve("invertedpendulum-v5-lwail", "policy").metrics["env_steps"] == 40
 
 
 def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
@@ -144,21 +172,16 @@ def test_the_python_example_of_the_docs_runs_on_a_quickstart_store(tmp_path, mon
 
     from lwail_cli import config as cfg
     from lwail_cli.artifacts import Store
-    from lwail_cli.stages import collect, demos, embed, imitate, warmup
+    from lwail_cli.stages import imitate
 
     monkeypatch.delenv("LWAIL_STORE", raising=False)
     monkeypatch.chdir(tmp_path)
-    store, cpu, env = Store("artifacts"), torch.device("cpu"), "InvertedPendulum-v5"
-    bundled = demos.import_bundled_demos(store, env_id=env)
-    data = collect.collect(store, env_id=env, config=cfg.CollectConfig(transitions=300), seed=0)
-    icvf = cfg.ICVFConfig(steps=4, hidden=(8,), embedding_dim=4, batch_size=16, log_every=4)
-    embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=cpu)
-    disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=bundled.ref, seed=0, device=cpu,
-                         config=cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(8,)), steps=2, transitions=100))
+    store = Store("artifacts")
+    bundled, embedding, disc = tiny_chain(store)
     config = cfg.ImitationConfig(td3=cfg.TD3Config(hidden=(8,), batch_size=16, random_steps=20, learning_starts=16),
                                  train=cfg.TrainConfig(steps=60, eval_every=60, eval_episodes=1), update_every=30, update_steps=1)
-    imitate.imitate(store, env_id=env, demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config,
-                    seed=0, device=cpu)
+    imitate.imitate(store, env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref,
+                    config=config, seed=0, device=torch.device("cpu"))
 
     usage = (Path(__file__).parents[1] / "docs" / "usage.md").read_text()
     section = usage[usage.index("\n## Python\n"):]
