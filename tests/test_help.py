@@ -38,6 +38,7 @@ def test_help_reads_at_80_columns_without_placeholders(path):
 
 def test_every_help_text_is_shown_as_written():
     texts = [(path, param.name, getattr(param, "help", None) or "") for path, command in COMMANDS for param in command.params]
+    texts += [(path, "", command.help or "") for path, command in COMMANDS]
     assert any('"lwail[video]"' in text for _, _, text in texts)  # the walk reaches the options
     assert not [where for where in texts if "\\" in where[2]]
 
