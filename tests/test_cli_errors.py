@@ -42,10 +42,31 @@ def seeded(cli, store, tmp_path):
         (("pretrain-icvf", "ip"), "is a demos artifact, but a dataset is needed"),
         (("imitate", "InvertedPendulum-v5", "--demos", "ip", "--embedding", "nope", "--disc", "x"), "no embedding artifact named 'nope'"),
         (("show", "policy/none"), "no policy artifact named 'none'"),
+        # an unknown name says which names exist, or the closest ones
+        (("show", "i@v1"), "no artifact named 'i' in store"),
+        (("show", "i@v1"), "; did you mean ip?"),
+        (("show", "nothing-like-it"), "; artifacts: ip"),
+        (("show", "polcy/ip"), "unknown artifact kind 'polcy' in 'polcy/ip'; did you mean policy?"),
+        (("expert", "record", "iq"), "no policy artifact named 'iq' in store"),
+        (("expert", "record", "iq"), "; there are no policy artifacts yet"),
+        (("eval", "demos/iq"), "no demos artifact named 'iq' in store"),
+        (("eval", "demos/iq"), "; demos artifacts: ip"),
+        (("demos", "import", "Hoper-v5", "--bundled"), "no bundled demos for Hoper-v5; did you mean Hopper-v5?"),
+        (("defaults", "imitation"), "unknown stage 'imitation'; did you mean imitate?"),
     ],
 )
 def test_bad_input_is_one_clear_line(cli, store, seeded, args, message):
     assert_refused(cli(*args), store, seeded, message)
+
+
+def test_show_finds_a_name_without_its_kind_unless_two_kinds_hold_it(cli, store, seeded, tmp_path):
+    shown = cli("show", "ip@v1")
+    assert shown.exit_code == 0 and '"kind": "demos"' in shown.output and '"name": "ip"' in shown.output
+    write_states_npz(tmp_path / "data.npz", episodes=2, obs_dim=4)
+    assert cli("collect", "InvertedPendulum-v5", "--from-file", tmp_path / "data.npz", "--name", "ip").exit_code == 0
+    assert_refused(cli("show", "ip@v1"), store, committed_versions(store),
+                   "'ip' names artifacts of 2 kinds: give one of dataset/ip@v1, demos/ip@v1")
+    assert '"kind": "dataset"' in cli("show", "dataset/ip").output
 
 
 def test_demos_with_the_wrong_observation_shape_are_refused(cli, store, seeded, tmp_path):

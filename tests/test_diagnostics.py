@@ -82,6 +82,8 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     result = cli("curve", "run", "--out", store.root / "live.png")
     assert result.exit_code == 0, result.output
     assert "in progress or killed" in result.output and (store.root / "live.png").stat().st_size > 0
+    # without --out, beside the killed run's curve in the run area
+    assert cli("curve", "run").output.splitlines()[-1] == f"wrote {store.runs.run_log('policy', 'run', 'curve.png')}"
     lines = [line.split() for line in result.output.splitlines()]
     assert [row[0] for row in lines if row and row[0].isdigit()] == ["500", "1000"]
     header = next(row for row in lines if row and row[0] == "step")
@@ -101,6 +103,7 @@ def test_the_curve_and_its_diagnostics_are_readable_while_a_run_goes_and_after(s
     assert curve[["reward_expert_mean", "reward_random_mean"]].notna().all().all()
     assert finished.config["critic"]["tanh"] is True  # inherited from the warm-up (default: tanh)
     assert cli("curve", "run", "--out", store.root / "done.png").output.startswith("policy/run@v1")
+    assert cli("curve", "run").output.splitlines()[-1] == f"wrote {finished.path / 'curve.png'}"  # then beside the policy
     beside = cli("curve", "run", "policy/run@v1", "--out", store.root / "both.png")  # one panel per run
     assert beside.exit_code == 0 and beside.output.count("policy/run@v1: ") == 2 and (store.root / "both.png").stat().st_size > 0
 

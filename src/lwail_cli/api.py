@@ -88,8 +88,8 @@ def load_reward(ref: str, store: str | Path | None = None) -> Reward:
 
 
 def load_episodes(ref: str, store: str | Path | None = None) -> dict[str, np.ndarray]:
-    """A dataset's or demos' episodes (``kind/name[@vN]`` or a path) as the .npz arrays: observations (N, d),
-    episode_ends and terminations (N,)."""
+    """A dataset's or demos' episodes (``name[@vN]`` where one kind holds the name, ``kind/name[@vN]`` or a path) as
+    the .npz arrays: observations (N, d), episode_ends and terminations (N,)."""
     artifact = Store(store).resolve_any(ref)
     if artifact.kind == "dataset":
         return episode_arrays(load_dataset(artifact))

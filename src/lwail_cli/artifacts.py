@@ -17,14 +17,14 @@ import re
 import shutil
 import socket
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
 
 from .envs import EnvInfo
 from .errors import LwailError
-from .manifests import KINDS, MANIFEST, file_hash, malformed, manifest_hash, new_manifest, read_manifest
-from .names import check_name, parse_ref
+from .manifests import KINDS, MANIFEST, content_hash, file_hash, malformed, manifest_hash, new_manifest, read_manifest
+from .names import check_name, closest, parse_ref
 from .run_area import RunArea, abandoned_by
 
 COMMIT_TRIES = 100  # version numbers tried before giving up on a store that other writers keep filling
@@ -40,6 +40,7 @@ class Artifact:
 
     path: Path
     manifest: dict
+    reused: bool = False  # found in the store holding what was about to be written (Store.create(reuse_same_content=True))
 
     @property
     def kind(self) -> str:
@@ -83,11 +84,16 @@ class Artifact:
     def file(self, name: str) -> Path:
         return self.path / name
 
+    def beside(self, filename: str) -> Path:
+        """A file kept beside the artifact's data and outside its hash (an evaluation log, a figure drawn later);
+        never one of its data files or its manifest."""
+        if filename in self.manifest["files"] or filename == MANIFEST:
+            raise LwailError(f"{filename} is a data file of {self.ref} and cannot be written beside it")
+        return self.path / filename
+
     def append_log(self, filename: str, row: dict) -> Path:
         """Append a row to a CSV that sits beside the artifact's data (not part of its hash)."""
-        if filename in self.manifest["files"] or filename == MANIFEST:
-            raise LwailError(f"{filename} is a data file of {self.ref} and cannot be appended to")
-        target = self.path / filename
+        target = self.beside(filename)
         new = not target.exists()
         with open(target, "a", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(row))
@@ -131,7 +137,8 @@ class Store:
                 elsewhere = [k for k in KINDS if k != ref_kind and (self.root / k / name).is_dir()]
                 if elsewhere:
                     raise LwailError(f"{ref!r} is a {elsewhere[0]} artifact, but a {kind} is needed here")
-                raise LwailError(f"no {ref_kind} artifact named {name!r} in store {self.root}")
+                raise LwailError(f"no {ref_kind} artifact named {name!r} in store {self.root}; "
+                                 f"{closest(name, self._names(ref_kind), f'{ref_kind} artifacts')}")
             versions = self._versions(ref_kind, name)
             if not versions:
                 raise LwailError(f"no committed version of {ref_kind}/{name} in store {self.root}")
@@ -155,14 +162,25 @@ class Store:
             return None
 
     def resolve_any(self, ref: str) -> Artifact:
-        """``kind/name[@vN]`` or an artifact path, whatever its kind."""
+        """``name[@vN]`` (a name only one kind holds), ``kind/name[@vN]`` or an artifact path, whatever its kind."""
         path = Path(ref)
         if (path / MANIFEST).is_file():
             return self._load(path)
-        kind = ref.split("/")[0] if "/" in ref else None
-        if kind not in KINDS:
-            raise LwailError(f"give kind/name (e.g. policy/hopper-v5-expert) or an artifact path, not {ref!r}")
-        return self.resolve(ref, kind)
+        parsed = parse_ref(ref)
+        if parsed is None:
+            raise LwailError(f"{ref!r} is neither an artifact path nor a name like 'hopper', 'hopper@v2' or 'policy/hopper@v2'")
+        kind, name, _ = parsed
+        if kind is not None:
+            if kind not in KINDS:
+                raise LwailError(f"unknown artifact kind {kind!r} in {ref!r}; {closest(kind, list(KINDS), 'kinds')}")
+            return self.resolve(ref, kind)
+        holding = [k for k in KINDS if self._versions(k, name)]
+        if len(holding) > 1:
+            raise LwailError(f"{name!r} names artifacts of {len(holding)} kinds: give one of {', '.join(f'{k}/{ref}' for k in holding)}")
+        if not holding:
+            names = sorted({n for k in KINDS for n in self._names(k)})
+            raise LwailError(f"no artifact named {name!r} in store {self.root}; {closest(name, names, 'artifacts')}")
+        return self.resolve(ref, holding[0])
 
     def resolve_parent(self, child: Artifact, kind: str) -> Artifact | None:
         """The direct parent of ``kind`` a child was made from, refused if it changed since (None if it has none)."""
@@ -194,6 +212,11 @@ class Store:
 
     def _load(self, path: Path) -> Artifact:
         return Artifact(path=path, manifest=read_manifest(path))
+
+    def _names(self, kind: str) -> list[str]:
+        """The names of ``kind`` with at least one committed version."""
+        folder = self.root / kind
+        return sorted(p.name for p in folder.iterdir() if self._versions(kind, p.name)) if folder.is_dir() else []
 
     def _versions(self, kind: str, name: str) -> list[int]:
         folder = self.root / kind / name
@@ -233,8 +256,10 @@ class Store:
         seed: int | None,
         parents: list[Artifact] = (),
         extra: dict | None = None,
+        reuse_same_content: bool = False,
     ) -> Iterator[ArtifactWriter]:
-        """Write a new version atomically; nothing becomes visible unless the block completes."""
+        """Write a new version atomically; nothing becomes visible unless the block completes. With
+        ``reuse_same_content`` (an import), a latest version with the same content hash is kept instead (``reused``)."""
         if kind not in KINDS:
             raise ValueError(f"unknown artifact kind {kind}")
         check_name(name)
@@ -246,9 +271,25 @@ class Store:
         writer = ArtifactWriter(directory)
         try:
             yield writer
-            writer.artifact = self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
+            existing = self._latest_with_same_content(writer, kind, name, env, config) if reuse_same_content else None
+            writer.artifact = existing or self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
         finally:
             shutil.rmtree(directory, ignore_errors=True)
+
+    def _latest_with_same_content(self, writer, kind, name, env, config) -> Artifact | None:
+        """The latest version of ``kind/name`` if its content hash is the one ``writer``'s files would get (only the
+        latest: a name then still refers to what was just written); None if it differs, or is damaged."""
+        versions = self._versions(kind, name)
+        if not versions:
+            return None
+        try:
+            latest = self._load(self.root / kind / name / f"v{versions[-1]}")
+        except LwailError:
+            return None
+        hashes = {str(target.relative_to(writer.directory)): file_hash(target) for target in writer.directory.rglob("*") if target.is_file()}
+        if latest.hash != content_hash(hashes, None if env is None else env.to_dict(), config):
+            return None
+        return replace(latest, reused=True)
 
     def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> Path:
         file_hashes = {}

@@ -218,12 +218,13 @@ def pretrain_icvf(
     config: ICVFConfig,
     seed: int,
     device: torch.device | str = "cpu",
-    on_progress: Callable[[int, float], None] | None = None,
+    on_progress: Callable[[int, float | None], None] | None = None,
     resume: dict | None = None,
     on_checkpoint: Callable[[dict], None] | None = None,
     expert: list[Episode] | None = None,
 ) -> ICVFResult:
-    """ICVF on the episodes; every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state
+    """ICVF on the episodes, reporting every step to ``on_progress`` (with the loss at a logged step, else None);
+    every ``config.checkpoint_every`` steps ``on_checkpoint`` gets the whole state
     (``resumable.capture``), and ``resume`` (such a state) continues bit for bit. Given the ``expert`` episodes, every log row also probes what
     the critic needs (``probe_critic_needs``), so one long run shows which budget φ needs."""
     torch.manual_seed(seed)
@@ -238,6 +239,7 @@ def pretrain_icvf(
         running = resume["running"].to(device)
     for step in range(first, config.steps + 1):
         running += learner.update(sampler.sample(config.batch_size))
+        logged = None
         if step % config.log_every == 0 or step == config.steps:
             span = step - (rows[-1]["step"] if rows else 0)  # the steps ``running`` summed: a resume may change log_every
             encoder = export_encoder(learner.model, obs_dim, config).cpu()
@@ -245,8 +247,9 @@ def pretrain_icvf(
             rows.append({"step": step, "wall_time": clock.elapsed(), "loss": loss, "probe_latent": probe_spearman(encoder, held_out)}
                         | ({} if expert is None else probe_critic_needs(encoder, expert, held_out)))
             running.zero_()
-            if on_progress is not None:
-                on_progress(step, rows[-1]["loss"])
+            logged = loss
+        if on_progress is not None:
+            on_progress(step, logged)
         if on_checkpoint is not None and checkpoint_due(step, config.checkpoint_every, config.steps):
             on_checkpoint(capture(parts, rows=list(rows), step=step, wall_time=clock.elapsed(), running=running.detach().cpu().clone()))
     encoder = export_encoder(learner.model, obs_dim, config).cpu()

@@ -6,6 +6,7 @@ records, and weights that do not fit that config are refused with one line.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
@@ -96,16 +97,35 @@ def parent(store: Store, artifact: Artifact, kind: str) -> Artifact:
 def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
     """The curve of the run named ``ref`` while it runs (or after a kill), else of the policy artifact ``ref``;
     with a line saying which was read."""
+    live = _live_curve(store, ref)
+    if live is not None:
+        return read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
+    policy = store.resolve(ref, "policy")
+    curve, path = policy_curve(policy)
+    return curve, f"{policy.ref}: {path}"
+
+
+def curve_figure_path(store: Store, *, refs: list[str]) -> Path:
+    """Where ``lwail curve`` draws the runs ``refs`` unless told: beside the first one's curve (in the run area while
+    it runs or after a kill, else beside its policy artifact's data, outside its hash), so that no run's figure
+    replaces another's; the other runs drawn beside it are named in the file's name."""
+    others = "".join("+" + re.sub(r"[^A-Za-z0-9._-]", "_", ref) for ref in refs[1:])
+    filename = f"curve{others}.png"
+    if _live_curve(store, refs[0]) is not None:
+        return store.runs.run_log("policy", refs[0], filename)
+    return store.resolve(refs[0], "policy").beside(filename)
+
+
+def _live_curve(store: Store, ref: str) -> Path | None:
+    """The curve file of the run named ``ref`` while it runs or after a kill (None if there is no such run)."""
     for filename in CURVE_FILES:
         try:
             live = store.runs.run_log("policy", ref, filename)
         except LwailError:  # not a plain name (e.g. name@v2 or a path): an artifact ref
-            break
+            return None
         if live.is_file():
-            return read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
-    policy = store.resolve(ref, "policy")
-    curve, path = policy_curve(policy)
-    return curve, f"{policy.ref}: {path}"
+            return live
+    return None
 
 
 def policy_curve(policy: Artifact) -> tuple[pd.DataFrame, Path]:

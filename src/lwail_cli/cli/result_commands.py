@@ -3,7 +3,8 @@ report, and export to another toolkit."""
 
 from __future__ import annotations
 
-import re
+import json
+import shlex
 from pathlib import Path
 from typing import Optional
 
@@ -12,23 +13,29 @@ import typer
 from .. import config as cfg
 from .. import learning_curve
 from ..errors import LwailError
-from ..loaders import read_curve
+from ..loaders import curve_figure_path, read_curve
 from ..stages import curve as curve_stage
 from ..stages import evaluate as evaluate_stage
 from ..stages import export as export_stage
+from ..stages import online as online_stage
 from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import sweep as sweep_stage
 from ..stages.sweep_plan import plan_from_dict, read_plan
 from ..stages.shared import resolve_device
-from .app import DEVICE, SEED, VIDEO, app, command, progress_bar, say_written, store
+from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
 
 
 @command(app, "eval", config=cfg.EvalConfig)
 def evaluate(
-    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    normalized: bool = typer.Option(False, "--normalized", help="Also print the D4RL-style normalized score."),
-    demos: Optional[str] = typer.Option(None, "--demos", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
+    policy: str = typer.Argument(..., metavar="POLICY", help="Policy artifact: name, name@vN or a path."),
+    normalized: bool = typer.Option(False, "--normalized", help=(
+        "Also print the normalized score 100·(R − R_random)/(R_expert − R_random). R_random and R_expert: for Hopper, "
+        "HalfCheetah, Walker2d and Ant (AntNoContactForces too), whatever the version (-v5 included), D4RL's reference "
+        "returns, measured on the -v2 tasks; for other tasks a Minari dataset's ref_min/max_score, else the demos' mean "
+        "return (or the bundled expert's) against a random policy's return measured on 10 episodes. The line printed "
+        "names the reference used.")),
+    demos: Optional[str] = typer.Option(None, "--demos", metavar="REF", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
     video: Optional[Path] = VIDEO,
     *,
     config: cfg.EvalConfig,
@@ -45,13 +52,13 @@ def _say_evaluation(result: dict) -> None:
     if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
     if result.get("not_logged"):
-        typer.echo(f"warning: not appended to evals.csv: {result['not_logged']}", err=True)
+        warn([f"not appended to evals.csv: {result['not_logged']}"])
 
 
 @command(app, "curve")
 def curve(
-    refs: list[str] = typer.Argument(..., help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
-    out: Optional[Path] = typer.Option(None, "--out", help="PNG to write (default: <ref>-curve.png in this folder, refs joined by '+')."),
+    refs: list[str] = typer.Argument(..., metavar="RUN...", help="A run's --name (running, killed or finished) or a policy artifact ref; several draw one panel each."),
+    out: Optional[Path] = typer.Option(None, "--out", metavar="FILE", help="PNG to write (default: curve.png beside the run's curve, in its policy artifact or, while it runs, in the run area; several runs: curve+<the others>.png beside the first's)."),
 ) -> None:
     """Print and plot a run's learning curve and critic diagnostics, also while it runs or after a kill; with several
     runs (e.g. the experts of three tasks), each one's table and summary, and one figure of their returns side by side."""
@@ -64,7 +71,7 @@ def curve(
         for line in curve_stage.summary_lines(history):
             typer.echo(line)
         histories[ref] = history
-    path = out or Path(re.sub(r"[^A-Za-z0-9._+-]", "_", "+".join(refs)) + "-curve.png")
+    path = out or curve_figure_path(store(), refs=refs)
     if len(histories) == 1:
         typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
     else:
@@ -73,25 +80,42 @@ def curve(
 
 @command(app, "quickstart")
 def quickstart(
-    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", help="A task with bundled demos."),
-    steps: Optional[int] = typer.Option(None, "--steps", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", metavar="ENV_ID", help="A task with bundled demos."),
+    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
     seed: int = SEED,
     device: str = DEVICE,
 ) -> None:
     """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
     plan = quickstart_stage.quickstart_plan(env_id, steps)
+    warn(online_stage.budget_warnings(plan.imitation))
     s = store()
     typer.echo(f"quickstart on {env_id} into store {s.root}")
     result = quickstart_stage.quickstart(
         s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
     )
     _say_evaluation(result)
+    typer.echo(f"\nevery artifact above is in {s.root} (`lwail ls` lists them). Next:")
+    for why, line in next_steps(result["policy"], env_id, s.root):
+        typer.echo(f"  # {why}\n  {line}")
+
+
+def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str, str]]:
+    """What to run after quickstart, each (why, command line): the run's curve, its policy in Python, another task."""
+    other = next(task for task in ("Hopper-v5", "Walker2d-v5") if task != env_id)
+    # double-quoted literals (json.dumps: valid Python), so that the shell's single quotes around them need no escapes
+    python = f"from lwail_cli import load_policy; print(load_policy({json.dumps(policy_ref)}, store={json.dumps(str(store_root))}))"
+    return [
+        ("the run's learning curve: a table, and a figure beside the policy", lwail_line(f"curve {policy_ref}")),
+        ("the policy in Python: .predict(obs) as in Stable-Baselines3 (docs/usage.md#python)", f"python -c {shlex.quote(python)}"),
+        ("the chain on another task (--steps: a shorter run); your own task: the README's stages",
+         lwail_line(f"quickstart --env {other} --steps 200000")),
+    ]
 
 
 @command(app, "sweep")
 def sweep(
-    plan_file: Path = typer.Argument(..., help="A plan (TOML): name, tasks, seeds, embeddings, \\[set] overrides per stage and \\[variants.NAME] arms; see plans/."),
-    address: Optional[str] = typer.Option(None, "--address", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
+    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
 ) -> None:
     """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
     plan = read_plan(plan_file)
@@ -140,9 +164,9 @@ def _say_report(artifact) -> None:
 
 @command(app, "export")
 def export(
-    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
-    out: Path = typer.Option(..., "--out", help="File to write (model.zip for --format sb3)."),
-    fmt: str = typer.Option("sb3", "--format", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
+    policy: str = typer.Argument(..., metavar="POLICY", help="Policy artifact: name, name@vN or a path."),
+    out: Path = typer.Option(..., "--out", metavar="FILE", help="File to write (model.zip for --format sb3)."),
+    fmt: str = typer.Option("sb3", "--format", metavar="FORMAT", help="sb3: a Stable-Baselines3 TD3 model.zip (TD3.load(path).predict)."),
 ) -> None:
     """Write a policy for another toolkit: the actor as an SB3 TD3 model (its critic freshly initialised)."""
     typer.echo(f"wrote {export_stage.export_policy(store(), policy_ref=policy, fmt=fmt, out=out)}")

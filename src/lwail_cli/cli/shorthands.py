@@ -28,7 +28,7 @@ FLAGS: dict[type, dict[str, str]] = {  # config class -> its settings that have 
     cfg.ImitationConfig: {"expert_episodes": "--expert-episodes"},
     cfg.EvalConfig: {"episodes": "--episodes", "seed": "--seed"},
 }
-SET = typer.Option([], "--set", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable, "
+SET = typer.Option([], "--set", metavar="KEY=VALUE", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable, "
                    "each key once, applied together (their order never matters). Lists: 64,64 or [64, 64]; [] is no hidden layer (a linear map).")
 CONTEXT = "lwail_context"  # the click context, which says whether a flag was given or left at its default
 
@@ -44,6 +44,11 @@ class Shorthand:
     @property
     def parameter(self) -> str:
         return "setting_" + self.key.replace(".", "_")
+
+    @property
+    def metavar(self) -> str:
+        """What --help writes after the flag: N for a count, X for a number, else the flag's name (--kind KIND)."""
+        return {int: "N", float: "X"}.get(self.hint, self.flag.lstrip("-").upper().replace("-", "_"))
 
 
 def shorthands(config, prefix: str = "") -> Iterator[Shorthand]:
@@ -66,7 +71,7 @@ def signature(function, config_type: type) -> inspect.Signature:
     leading = next((i for i, parameter in enumerate(own) if not _is_required(parameter)), len(own))
     flags = [
         inspect.Parameter(shorthand.parameter, inspect.Parameter.KEYWORD_ONLY, annotation=shorthand.hint, default=typer.Option(
-            shorthand.default, shorthand.flag, help=f"--set {shorthand.key}: {shorthand.doc}."))
+            shorthand.default, shorthand.flag, metavar=shorthand.metavar, help=f"--set {shorthand.key}: {shorthand.doc}."))
         for shorthand in shorthands(config_type())
     ]
     extra = [inspect.Parameter("overrides", inspect.Parameter.KEYWORD_ONLY, annotation=list[str], default=SET),

@@ -15,6 +15,7 @@ from ..stages import demos as demos_stage
 from ..stages import embed as embed_stage
 from ..stages import expert as expert_stage
 from ..stages import imitate as imitate_stage
+from ..stages import online as online_stage
 from ..stages import warmup as warmup_stage
 from ..stages.shared import resolve_device
 from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, refuse_unread_settings, resume_option, say_written, store
@@ -23,9 +24,9 @@ from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app,
 # ------------------------------------------------------------------------------ data
 @command(app, "collect", config=cfg.CollectConfig)
 def collect(
-    env_id: str = typer.Argument(..., help="Gymnasium environment id, e.g. Hopper-v5."),
-    from_minari: Optional[str] = typer.Option(None, "--from-minari", help="Import a dataset from the local Minari store (never downloads)."),
-    from_file: Optional[Path] = typer.Option(None, "--from-file", help="Import a .npz with 'observations' and 'episode_ends'."),
+    env_id: str = typer.Argument(..., metavar="ENV_ID", help="Gymnasium environment id, e.g. Hopper-v5."),
+    from_minari: Optional[str] = typer.Option(None, "--from-minari", metavar="DATASET_ID", help="Import a dataset from the local Minari store (never downloads)."),
+    from_file: Optional[Path] = typer.Option(None, "--from-file", metavar="FILE", help="Import a .npz with 'observations' and 'episode_ends'."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     *,
@@ -46,7 +47,7 @@ def collect(
 # ------------------------------------------------------------------------------ experts & demos
 @command(expert_app, "train", config=cfg.ExpertConfig)
 def expert_train(
-    env_id: str = typer.Argument(..., help="Gymnasium environment id with a continuous action space."),
+    env_id: str = typer.Argument(..., metavar="ENV_ID", help="Gymnasium environment id with a continuous action space."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -55,7 +56,7 @@ def expert_train(
     config: cfg.ExpertConfig,
 ) -> None:
     """Train a TD3 expert on the environment's true reward (the paper's TD3 baseline)."""
-    with progress_bar(f"expert {env_id}", config.train.steps) as report:
+    with progress_bar(f"expert {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = expert_stage.train_expert(
             store(), env_id=env_id, config=config, seed=seed, name=name, device=resolve_device(device), resume=resume, on_progress=report
         )
@@ -64,7 +65,7 @@ def expert_train(
 
 @command(expert_app, "record", config=cfg.RecordConfig)
 def expert_record(
-    policy: str = typer.Argument(..., help="Policy artifact: name, name@vN or a path."),
+    policy: str = typer.Argument(..., metavar="POLICY", help="Policy artifact: name, name@vN or a path."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     video: Optional[Path] = VIDEO,
@@ -77,13 +78,13 @@ def expert_record(
 
 @command(demos_app, "import", config=cfg.RecordConfig)
 def demos_import(
-    env_id: str = typer.Argument(..., help="Environment the demonstrations come from."),
-    from_minari: Optional[str] = typer.Option(None, "--from-minari", help="A dataset id in the local Minari store."),
-    from_file: Optional[Path] = typer.Option(None, "--from-file", help="A .npz with 'observations', 'episode_ends' (and optional 'returns')."),
+    env_id: str = typer.Argument(..., metavar="ENV_ID", help="Environment the demonstrations come from."),
+    from_minari: Optional[str] = typer.Option(None, "--from-minari", metavar="DATASET_ID", help="A dataset id in the local Minari store."),
+    from_file: Optional[Path] = typer.Option(None, "--from-file", metavar="FILE", help="A .npz with 'observations', 'episode_ends' (and optional 'returns')."),
     bundled: bool = typer.Option(False, "--bundled", help="The demos shipped with lwail for this env."),
     from_imitation: Optional[Path] = typer.Option(
-        None, "--from-imitation", help="Trajectories saved by the imitation library (imitation.data.serialize.save: a folder, or its older .npz)."),
-    from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
+        None, "--from-imitation", metavar="PATH", help="Trajectories saved by the imitation library (imitation.data.serialize.save: a folder, or its older .npz)."),
+    from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", metavar="FILE", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     *,
@@ -106,8 +107,8 @@ def demos_import(
 # ------------------------------------------------------------------------------ LWAIL stages
 @command(app, "pretrain-icvf", config=cfg.EmbedConfig)
 def pretrain_icvf(
-    data: str = typer.Argument(..., help="Dataset artifact (from `lwail collect`)."),
-    demos: Optional[str] = typer.Option(None, "--demos", help="Expert demos: also probe expert-vs-random separation and progress in φ (recommended)."),
+    data: str = typer.Argument(..., metavar="DATASET", help="Dataset artifact (from `lwail collect`)."),
+    demos: Optional[str] = typer.Option(None, "--demos", metavar="REF", help="Expert demos: also probe expert-vs-random separation and progress in φ (recommended)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -127,9 +128,9 @@ def pretrain_icvf(
 
 @command(app, "warmup-disc", config=cfg.WarmupConfig)
 def warmup_disc(
-    embedding: str = typer.Argument(..., help="Embedding artifact (from `lwail pretrain-icvf`)."),
-    demos: str = typer.Argument(..., help="Demos artifact."),
-    data: Optional[str] = typer.Option(None, "--data", help="Random-policy dataset (default: the one the embedding was trained on)."),
+    embedding: str = typer.Argument(..., metavar="EMBEDDING", help="Embedding artifact (from `lwail pretrain-icvf`)."),
+    demos: str = typer.Argument(..., metavar="DEMOS", help="Demos artifact."),
+    data: Optional[str] = typer.Option(None, "--data", metavar="REF", help="Random-policy dataset (default: the one the embedding was trained on)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -147,10 +148,10 @@ def warmup_disc(
 
 @command(app, "imitate", config=cfg.ImitationConfig)
 def imitate(
-    env_id: str = typer.Argument(..., help="Environment to imitate in."),
-    demos: str = typer.Option(..., "--demos", help="Demos artifact."),
-    embedding: str = typer.Option(..., "--embedding", help="Embedding artifact."),
-    disc: str = typer.Option(..., "--disc", help="Warmed-up discriminator artifact (f keeps the loss it was warmed up with)."),
+    env_id: str = typer.Argument(..., metavar="ENV_ID", help="Environment to imitate in."),
+    demos: str = typer.Option(..., "--demos", metavar="REF", help="Demos artifact."),
+    embedding: str = typer.Option(..., "--embedding", metavar="REF", help="Embedding artifact."),
+    disc: str = typer.Option(..., "--disc", metavar="REF", help="Warmed-up discriminator artifact (f keeps the loss it was warmed up with)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -159,7 +160,7 @@ def imitate(
     config: cfg.ImitationConfig,
 ) -> None:
     """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
-    with progress_bar(f"imitate {env_id}", config.train.steps) as report:
+    with progress_bar(f"imitate {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = imitate_stage.imitate(
             store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,
             name=name, device=resolve_device(device), resume=resume, on_progress=report,

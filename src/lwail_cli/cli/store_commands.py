@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+import textwrap
 from typing import Optional
 
 import typer
 
 from .. import config as cfg
+from .. import glossary
 from ..errors import LwailError
+from ..names import closest
 from .app import app, command, fmt, store
 
 
@@ -34,13 +37,20 @@ def list_artifacts() -> None:
 
 
 @command(app, "show")
-def show(ref: str = typer.Argument(..., help="kind/name, kind/name@vN or a path.")) -> None:
-    """Print one artifact's manifest."""
-    typer.echo(json.dumps(store().resolve_any(ref).manifest, indent=2))
+def show(ref: str = typer.Argument(..., metavar="REF", help="name, name@vN (either kind/-prefixed where two kinds share the name) or a path.")) -> None:
+    """Print one artifact's manifest (JSON, on stdout) and what its metrics mean (on stderr)."""
+    artifact = store().resolve_any(ref)
+    typer.echo(json.dumps(artifact.manifest, indent=2))
+    explained = {metric: glossary.meaning(metric) for metric in artifact.metrics if glossary.meaning(metric)}
+    if explained:
+        typer.echo("\nwhat its metrics mean (docs/usage.md#what-the-metrics-mean):", err=True)
+        width = max(map(len, explained))
+        for metric, text in explained.items():
+            typer.echo(textwrap.fill(text, width=80, initial_indent=f"  {metric.ljust(width)}  ", subsequent_indent=" " * (width + 4)), err=True)
 
 
 @command(app, "verify")
-def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a path (default: every artifact in the store).")) -> None:
+def verify(ref: Optional[str] = typer.Argument(None, metavar="REF", help="name, name@vN, kind/name@vN or a path (default: every artifact in the store).")) -> None:
     """Re-hash every file and manifest of one artifact, or of the whole store; exit 1 if anything is damaged."""
     results = store().verify(ref)
     for path, problem in results:
@@ -52,10 +62,10 @@ def verify(ref: Optional[str] = typer.Argument(None, help="kind/name\\[@vN] or a
 
 
 @command(app, "defaults")
-def defaults(stage: Optional[str] = typer.Argument(None, help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
+def defaults(stage: Optional[str] = typer.Argument(None, metavar="STAGE", help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
     """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
     if stage is not None and stage not in cfg.STAGES:
-        raise LwailError(f"unknown stage {stage!r}; one of {', '.join(cfg.STAGES)}")
+        raise LwailError(f"unknown stage {stage!r}; {closest(stage, list(cfg.STAGES), 'stages')}")
     for name, config_type in cfg.STAGES.items():
         if stage in (None, name):
             typer.echo(f"# {name}\n{cfg.describe(config_type())}")

@@ -18,6 +18,9 @@ from ..errors import LwailError
 _ZIP_ERRORS = (OSError, ValueError, EOFError, RuntimeError, NotImplementedError, zipfile.BadZipFile, zlib.error)
 
 
+ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the earliest time a zip member can carry
+
+
 def npz_arrays(path: Path) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
     """The arrays a .npz declares (name: shape, dtype), read from their headers alone, so that nothing is allocated
     before the file is known to be sound: a zip of .npy members, each storing exactly the bytes its shape declares
@@ -125,8 +128,14 @@ def episode_arrays(episodes: list[Episode]) -> dict[str, np.ndarray]:
 
 
 def write_npz(path: Path, episodes: list[Episode], returns: np.ndarray | None = None) -> None:
+    """A compressed .npz, as ``np.savez_compressed`` writes it but with a fixed time on every member, so that the
+    same episodes make the same bytes (and the same content hash: an import already in the store is found)."""
     arrays = episode_arrays(episodes)
     if returns is not None:
         arrays["returns"] = np.asarray(returns, dtype=np.float64)
-    with open(path, "wb") as handle:
-        np.savez_compressed(handle, **arrays)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for key, array in arrays.items():
+            member = zipfile.ZipInfo(f"{key}.npy", date_time=ZIP_TIME)
+            member.compress_type = zipfile.ZIP_DEFLATED
+            with archive.open(member, "w", force_zip64=True) as handle:
+                np.lib.format.write_array(handle, array, allow_pickle=False)

@@ -15,6 +15,7 @@ from ..errors import LwailError
 from ..formats.npz import npz_load_bytes, read_npz, write_npz
 from ..formats.sb3_zip import read_sb3_policy
 from ..loaders import load_demos, load_policy, policy_fn
+from ..names import closest
 from ..rollout import rollout
 from ..video import filmed_rollout
 from .shared import default_name, read_external, require_memory
@@ -56,7 +57,8 @@ def _record(store: Store, info: EnvInfo, act, config: RecordConfig, seed: int, n
 
 def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None,
                  imitation: Path | None = None) -> Artifact:
-    """State-only episodes from a local Minari dataset, a .npz, or trajectories saved by the `imitation` library."""
+    """State-only episodes from a local Minari dataset, a .npz, or trajectories saved by the `imitation` library; the
+    name's latest version if it already holds the same (same content hash: ``reused``), else a new version."""
     info = describe_env(env_id)
     if npz is not None:
         require_memory(npz_load_bytes(npz), f"loading {npz}")
@@ -66,7 +68,7 @@ def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_i
         returns = [e.episode_return for e in episodes]
     name = name or default_name(env_id, "demos")
     returns = np.asarray(returns if returns is not None else [np.nan] * len(episodes), dtype=np.float64)
-    return _write_demos(store, name, info, episodes, returns, {"source": source, **extra}, None, [])
+    return _write_demos(store, name, info, episodes, returns, {"source": source, **extra}, None, [], reuse_same_content=True)
 
 
 def bundled_demos_path(env_id: str) -> Path:
@@ -74,7 +76,7 @@ def bundled_demos_path(env_id: str) -> Path:
     path = folder / f"{env_id}.npz"
     if not path.is_file():
         available = sorted(p.name[:-4] for p in folder.iterdir() if p.name.endswith(".npz"))
-        raise LwailError(f"no bundled demos for {env_id}; bundled: {', '.join(available) or 'none'}")
+        raise LwailError(f"no bundled demos for {env_id}; {closest(env_id, available, 'tasks with bundled demos')}")
     return Path(str(path))
 
 
@@ -91,9 +93,10 @@ def holds_bundled_demos(artifact: Artifact) -> bool:
             and all(np.array_equal(a.observations, b.observations) for a, b in zip(held, bundled)))
 
 
-def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode], returns: np.ndarray, config: dict, seed, parents) -> Artifact:
+def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode], returns: np.ndarray, config: dict, seed, parents,
+                 reuse_same_content: bool = False) -> Artifact:
     validate_episodes(episodes, info, f"demos {name}")
-    with store.create("demos", name, env=info, config=config, seed=seed, parents=parents) as writer:
+    with store.create("demos", name, env=info, config=config, seed=seed, parents=parents, reuse_same_content=reuse_same_content) as writer:
         write_npz(writer.path("demos.npz"), episodes, returns)
         writer.metrics.update({"episodes": len(episodes), "transitions": int(sum(e.length for e in episodes))})
         if np.all(np.isfinite(returns)):

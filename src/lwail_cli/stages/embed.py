@@ -52,7 +52,7 @@ def embed(
     record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
     with open_run(store, "embedding", name, resume=resume, record=run_record(record, seed, info.id, parents), config_class=cfg.EmbedConfig) as run:
         result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
-                               None if on_progress is None else lambda step, loss: on_progress(step, {"loss": loss}),
+                               None if on_progress is None else lambda step, loss: on_progress(step, {} if loss is None else {"loss": loss}),
                                resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert)
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())

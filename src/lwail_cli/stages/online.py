@@ -29,6 +29,9 @@ if TYPE_CHECKING:
     from ..training import RewardModel
 
 
+PROGRESS_EVERY = 100  # env steps between progress reports: a bar that moves smoothly, at a few updates a second
+
+
 @dataclass(frozen=True)
 class TrainedPolicy:
     state: RunState  # the history of evaluations, the best one and the wall time
@@ -66,6 +69,22 @@ def replay_capacity(info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfi
     return capacity
 
 
+def budget_warnings(config: cfg.ExpertConfig | cfg.ImitationConfig) -> list[str]:
+    """What a budget too small to train or to watch a run leaves out. Warned, not refused: a short run that only
+    checks the chain works is legitimate."""
+    steps, td3, train = config.train.steps, config.td3, config.train
+    warnings = []
+    if steps < td3.learning_starts:
+        warnings.append(f"--steps {steps} is below td3.learning_starts ({td3.learning_starts}): TD3 never updates, the policy "
+                        "kept is its untrained initial network")
+    elif steps <= td3.random_steps:
+        warnings.append(f"--steps {steps} is at most td3.random_steps ({td3.random_steps}): every action is uniformly random, "
+                        "the policy kept never acted (raise --steps or lower --set td3.random_steps=N)")
+    if train.eval_every > steps:
+        warnings.append(f"--eval-every {train.eval_every} is above --steps {steps}: the policy is evaluated once, at the end")
+    return warnings
+
+
 def train_policy(
     run: Run, *, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, seed: int, capacity: int,
     device: torch.device, reward_model: RewardModel | None = None, reference: Reference | None = None,
@@ -79,7 +98,7 @@ def train_policy(
         info.id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model, reference=reference,
         resume=run.resume, on_checkpoint=run.save_checkpoint,
         on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
-        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
+        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history), progress_every=PROGRESS_EVERY,
     )
     return TrainedPolicy(state, agent)
 

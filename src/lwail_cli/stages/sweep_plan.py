@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .. import config as cfg
 from ..errors import LwailError
-from ..names import check_name
+from ..names import check_name, closest
 from .chain import CHAIN
 from .demos import bundled_demos_path
 
@@ -174,8 +174,12 @@ def _read_grid(table: dict, where: str, variants: dict, keys: set[str] | None = 
         raise LwailError(f"{where}: 'tasks' must be a non-empty list of distinct env ids")
     if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
         raise LwailError(f"{where}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
-    if not _unique_list(kinds, str) or not set(kinds) <= set(EMBEDDINGS) | set(variants):
+    if not _unique_list(kinds, str):
         raise LwailError(f"{where}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)} and the plan's [variants]")
+    arms = [*EMBEDDINGS, *variants]
+    unknown_arm = next((kind for kind in kinds if kind not in arms), None)
+    if unknown_arm is not None:
+        raise LwailError(f"{where}: unknown embedding {unknown_arm!r} in 'embeddings'; {closest(unknown_arm, arms, 'arms (embedding kinds and [variants])')}")
     return Grid(tuple(tasks), tuple(seeds), tuple(kinds))
 
 
