@@ -186,3 +186,25 @@ def test_a_critic_still_saturated_at_150k_steps_is_flagged(steps, wasserstein, w
     if warned:
         assert note.startswith("warning: f is saturated at step 150000 (Wasserstein estimate 1.970")
     assert learning_curve.saturated_critic(curve.drop(columns="wasserstein_estimate")) is None  # an expert's curve
+
+
+def test_a_running_imitation_warns_once_at_the_evaluation_that_finds_f_saturated():
+    from lwail_cli.stages.online import WARNING, run_summary
+    from lwail_cli.training import RunState
+
+    row = {"return_mean": 1.0, "wasserstein_estimate": 1.99, "reward_expert_mean": 0.99, "pseudo_reward_mean": 0.01}
+    history = [{"step": 140_000, **row}, {"step": 150_000, **row}]
+    assert WARNING in run_summary(RunState(step=150_000, history=history))
+    assert WARNING not in run_summary(RunState(step=150_100, history=history))  # progress between evaluations
+    assert WARNING not in run_summary(RunState(step=160_000, history=history + [{"step": 160_000, **row}]))  # said once
+    plain_dual = [{"step": 100_000, **row, "wasserstein_estimate": 3.5}, {"step": 150_000, **row}]
+    assert learning_curve.saturated_critic(pd.DataFrame(plain_dual)) is None  # no tanh ceiling to be near
+
+
+def test_the_curve_summary_ends_with_the_saturation_warning():
+    from lwail_cli.stages.curve import summary_lines
+
+    curve = pd.DataFrame({"step": [100_000, 150_000], "return_mean": 1.0, "normalized_score": [0.5, 0.7], "wasserstein_estimate": 1.99,
+                          "reward_expert_mean": 0.99, "pseudo_reward_mean": 0.01})
+    assert summary_lines(curve)[-1].startswith("warning: f is saturated at step 150000")
+    assert not summary_lines(curve.assign(wasserstein_estimate=1.5))[-1].startswith("warning")

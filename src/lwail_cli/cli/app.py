@@ -16,6 +16,7 @@ import typer
 from tqdm import tqdm
 from typer.core import TyperCommand
 
+from ..stages.online import WARNING
 from ..version import __version__
 from ..artifacts import Store
 from ..errors import LwailError
@@ -168,6 +169,8 @@ def progress_bar(description: str, total: int, warnings: list[str] = ()):
             # steps done before the bar appears (a resumed run's, or the first report's) are not counted in its rate
             bars.append(tqdm(total=total, initial=done, desc=description, unit="step", dynamic_ncols=True, file=sys.stderr, mininterval=0.5))
         bars[0].update(done - bars[0].n)
+        if WARNING in shown:
+            bars[0].write(shown.pop(WARNING), file=sys.stderr)
         if shown:
             bars[0].set_postfix({key: fmt(value) for key, value in shown.items() if "/" not in key}, refresh=False)
         if scalars is not None:

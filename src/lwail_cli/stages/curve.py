@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..config import POLICY_NETWORKS
-from ..learning_curve import curve_figures
+from ..learning_curve import curve_figures, saturated_critic
 from ..plots import plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
@@ -39,4 +39,5 @@ def summary_lines(curve: pd.DataFrame) -> list[str]:
             f"mean of the last 10% {figures['last_10pct_mean']:.1f} · after half the steps: mean "
             f"{figures['second_half_mean']:.1f}, lowest {figures['second_half_min']:.1f} (step {figures['second_half_min_step']:.0f})"
         )
-    return lines
+    saturated = saturated_critic(curve)
+    return lines + ([saturated] if saturated else [])

@@ -103,9 +103,13 @@ def train_policy(
     return TrainedPolicy(state, agent)
 
 
+WARNING = "warning"  # a line the caller prints once, beside the progress (not a figure)
+
+
 def run_summary(run: RunState) -> dict:
     """The latest episode return, evaluation and score of a run in progress; at an evaluation's step, also that
-    evaluation's whole row as ``curve/<column>`` (what a live logger records beside the CSV)."""
+    evaluation's whole row as ``curve/<column>`` (what a live logger records beside the CSV), and at the evaluation
+    that judges it, the warning of a critic still saturated (``learning_curve.saturated_critic``)."""
     shown = {}
     if run.episode_returns:
         shown["ep_return"] = run.episode_returns[-1]
@@ -116,6 +120,10 @@ def run_summary(run: RunState) -> dict:
             shown["score"] = last["normalized_score"]
         if last["step"] == run.step:
             shown.update({f"curve/{column}": value for column, value in last.items() if column != "step"})
+            judged_now = len(run.history) == 1 or run.history[-2]["step"] < learning_curve.SATURATION_STEP
+            note = learning_curve.saturated_critic(pd.DataFrame([last])) if judged_now else None
+            if note is not None:
+                shown[WARNING] = note
     return shown
 
 
