@@ -134,9 +134,9 @@ def sweep(
 
 @command(app, "report")
 def report(
-    sweep_ref: str = typer.Argument(..., help="A plan file, or the name of a sweep that has a report."),
-    curves: Optional[Path] = typer.Option(None, "--curves", help="Read each run's curve from DIR/<plan>_<task>_<arm>_seed<S>.csv (as docs/results holds them) instead of the store; needs the plan file."),
-    out: Optional[Path] = typer.Option(None, "--out", help="With --curves: the folder for the figures (default: the --curves folder)."),
+    sweep_ref: str = typer.Argument(..., metavar="PLAN_OR_SWEEP", help="A plan file, or the name of a sweep that has a report."),
+    curves: Optional[Path] = typer.Option(None, "--curves", metavar="DIR", help="Read each run's curve from DIR/<plan>_<task>_<arm>_seed<S>.csv (as docs/results holds them) instead of the store; needs the plan file."),
+    out: Optional[Path] = typer.Option(None, "--out", metavar="DIR", help="With --curves: the folder for the figures (default: the --curves folder)."),
 ) -> None:
     """A sweep's report: per task and arm over seeds mean ± std, IQM with a 95% bootstrap interval and % of our
     expert; across tasks the IQM and a performance profile; curves. From the store, or with --curves from committed
