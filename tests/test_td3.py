@@ -155,3 +155,35 @@ def test_an_evaluation_without_a_fall_is_kept_over_a_higher_one_with_a_fall():
     assert not is_better({"return_mean": 4000.0, "episodes_terminated": 2}, run)
     assert not is_better({"return_mean": 2400.0, "episodes_terminated": 0}, run)
     assert is_better({"return_mean": 2600.0, "episodes_terminated": 0}, run)
+
+
+def test_policy_values_are_the_lower_twin_q_of_the_policy_action():
+    env = describe_env("InvertedPendulum-v5")
+    torch.manual_seed(0)
+    agent = TD3(env, TD3Config(hidden=(16,)))
+    states = np.random.default_rng(0).normal(size=(5, env.obs_dim)).astype(np.float32)
+    with torch.no_grad():
+        for weight in agent.critic.weights[-1]:
+            weight.zero_()
+        agent.critic.biases[-1].copy_(torch.tensor([3.0, -1.0]).view(2, 1, 1))
+    assert torch.equal(agent.policy_values(states), torch.full((5,), -1.0))
+    with torch.no_grad():  # twin 0 says 0 everywhere, twin 1 is a trained-looking net: the min is taken per state
+        agent.critic.biases[-1].zero_()
+        agent.critic.weights[-1][1].normal_()
+        inputs = torch.cat([torch.as_tensor(states), agent.actor(torch.as_tensor(states))], 1)
+        second = agent.critic(inputs)[1].squeeze(1)
+    assert (second > 0).any() and (second < 0).any()
+    assert torch.equal(agent.policy_values(states), second.clamp(max=0.0))
+
+
+def test_each_evaluation_logs_the_critic_values_over_the_evaluated_states():
+    env = describe_env("InvertedPendulum-v5")
+    td3 = TD3Config(hidden=(16,), random_steps=300, learning_starts=64, batch_size=64)
+    train = TrainConfig(steps=600, eval_every=600, eval_episodes=2)
+    torch.manual_seed(0)
+    agent = TD3(env, td3)
+    run = train_td3("InvertedPendulum-v5", agent, ReplayBuffer(600, env.obs_dim, env.act_dim), td3, train, seed=0)
+    evaluation = rollout("InvertedPendulum-v5", lambda obs: agent.act(obs, which=train.policy), stream_seeds(0, "evaluation", 2), record=True)
+    values = agent.policy_values(np.concatenate([episode.observations for episode in evaluation.episodes]), which=train.policy)
+    row = run.history[-1]
+    assert row["q_policy_mean"] == float(values.mean()) and row["q_policy_std"] == float(values.std()) > 0

@@ -26,11 +26,14 @@ WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spe
 # the spread of σ(−f) over the latest policy pairs, the mean slope ‖∂σ(−f)/∂s'‖ of that reward in the raw next state
 # (through φ: what an action can change), and the mean |Δf| on those pairs over the update (how far f moved)
 PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT = "pseudo_reward_std", "reward_slope_policy", "critic_shift"
+# what TD3's critic expects the evaluated policy to earn, min over its twins of Q(s, π(s)), over the states of the
+# evaluation's episodes: its mean, and its spread (a flat reward leaves a Q that cannot tell states apart either)
+Q_POLICY_MEAN, Q_POLICY_STD = "q_policy_mean", "q_policy_std"
 
 # the columns `lwail curve` prints, in this order, where a curve has them (the rest stay in the file)
 TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score",
          *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
-         PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, "episodes_terminated")
+         PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, Q_POLICY_MEAN, Q_POLICY_STD, "episodes_terminated")
 
 LAST_FRACTION = 0.1  # "the last 100k" of a 1M-step run: the evaluations after step 0.9·N
 FIGURES = ("at_end", "last_10pct_mean", "second_half_mean", "second_half_min", "best")  # curve_figures' scores

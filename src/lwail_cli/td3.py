@@ -82,6 +82,13 @@ class TD3:
         tensor = torch.as_tensor(obs, dtype=torch.float32, device=self.device)
         return self.network(which)(tensor).cpu().numpy()
 
+    @torch.inference_mode()
+    def policy_values(self, obs: np.ndarray, which: str = "actor") -> torch.Tensor:
+        """min over the twin critics of Q(s, π(s)) for each observation, π = ``network(which)``: what the critic
+        expects the policy to earn from each state."""
+        states = torch.as_tensor(obs, dtype=torch.float32, device=self.device)
+        return self.critic(torch.cat([states, self.network(which)(states)], 1)).amin(0).squeeze(1)
+
     def update(self, batch: dict[str, torch.Tensor]) -> None:
         cfg = self.config
         obs, actions = batch["observations"], batch["actions"]

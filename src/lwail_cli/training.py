@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Callable, Protocol
 import numpy as np
 import torch
 
+from . import learning_curve as curve
 from .envs import make_env
 from .resumable import EnvironmentState, NumpyGenerator, Stopwatch, capture, checkpoint_due, restore
 from .rollout import rollout
@@ -77,6 +78,8 @@ def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, refe
     seeds = stream_seeds(seed, "evaluation", train.eval_episodes)
     evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
     row = _scores(evaluation.returns, reference, "", std=True) | {"episodes_terminated": int(evaluation.terminated.sum())}
+    values = agent.policy_values(np.concatenate([episode.observations for episode in evaluation.episodes]), which=train.policy)
+    row |= {curve.Q_POLICY_MEAN: float(values.mean()), curve.Q_POLICY_STD: float(values.std())}
     row |= reward_model.metrics(evaluation)
     if train.evaluate_other:
         for other in (name for name in agent.networks() if name != train.policy):
