@@ -38,7 +38,7 @@ from lwail_cli.manifests import content_hash, manifest_hash
 from lwail_cli.stages import collect, demos, embed, expert, imitate, warmup
 
 ENV = "InvertedPendulum-v5"
-HANG_SECONDS = 10
+HANG_SECONDS = 60  # a hang never returns; a legitimate 40-step imitate takes ~10 s on a core shared with two runs
 CPU = torch.device("cpu")
 
 # the killed runs of the three long stages, and the flags that resume each exactly (so a refusal is the input's doing)
