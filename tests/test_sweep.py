@@ -146,6 +146,7 @@ def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_d
     raw = tomllib.loads((PLANS / "smoke.toml").read_text())
     raw.update(name="ab", seeds=[0], embeddings=["icvf", "jax-phi"],
                variants={"jax-phi": {"kind": "icvf", "pretrain-icvf": ["icvf.layer_norm=after"], "imitate": ["td3.gamma=0.9"]}})
+    raw["set"]["pretrain-icvf"] = [*raw["set"]["pretrain-icvf"], "icvf.layer_norm=none"]  # the arm icvf: the authors' φ
     plan = plan_from_dict(raw, "test plan")
     assert [run.kind for run in plan.runs] == ["icvf", "jax-phi"]
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan  # a report rebuilds the same plan

@@ -96,8 +96,8 @@ class ICVFConfig(Validated):
     hidden: tuple[int, ...] = setting((256,), "hidden widths of φ, ψ and T before the embedding layer", low=1, high=4096)
     embedding_dim: int = setting(256, "dimension of φ(s)", low=1, high=4096)
     layer_norm: str = setting(
-        "none", "LayerNorm in φ, ψ, T: none (the authors' PyTorch ICVF; the default, decided on Walker2d), after each GELU "
-        "(the JAX ICVF's LayerNormMLP) or before it (lwail's default before 0.2); docs/algorithm.md", choices=LAYER_NORMS, aliases={True: "before", False: "none", "true": "before", "false": "none"})
+        "after", "LayerNorm in φ, ψ, T: after each GELU (the JAX ICVF's LayerNormMLP; the default since 0.3, chosen by issue "
+        "40's screen), none (the authors' PyTorch ICVF; the default in 0.2) or before it (the default in 0.1); docs/algorithm.md", choices=LAYER_NORMS, aliases={True: "before", False: "none", "true": "before", "false": "none"})
     ensemble: int = setting(2, "independent value functions (φ is taken from the first)", low=1, high=64)
     lr: float = setting(3e-4, "Adam learning rate", low=1e-7, high=1.0)
     gamma: float = setting(0.99, "discount of the intention-conditioned values", low=0.0, below=1.0)
