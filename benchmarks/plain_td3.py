@@ -96,8 +96,8 @@ class PlainReplayBuffer:
         }
 
 
-def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed: int = 0, device: torch.device | str = "cpu") -> float:
-    """Env-steps/s of the textbook loop over ``steps`` steps after ``warmup`` random steps."""
+def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed: int = 0, device: torch.device | str = "cpu") -> tuple[float, float]:
+    """(CPU seconds, wall seconds) per env step of the textbook loop over ``steps`` steps after ``warmup`` random steps."""
     import time
 
     env = make_env(env_id, seed=seed)
@@ -110,7 +110,7 @@ def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed:
     started = None
     for step in range(warmup + steps):
         if step == warmup:
-            started = time.perf_counter()
+            started = time.process_time(), time.perf_counter()
         if step < warmup:
             action = env.action_space.sample()
         else:
@@ -122,4 +122,4 @@ def run_plain_td3(env_id: str, warmup: int, steps: int, config: TD3Config, seed:
         obs = env.reset()[0] if terminated or truncated else next_obs
         if step >= warmup:
             agent.update(buffer.sample(config.batch_size))
-    return steps / (time.perf_counter() - started)
+    return (time.process_time() - started[0]) / steps, (time.perf_counter() - started[1]) / steps

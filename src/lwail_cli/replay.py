@@ -1,7 +1,8 @@
 """A replay buffer of preallocated tensors, sampled on the compute device.
 
-On the CPU the tensors are written through numpy views of the same memory, so adding a transition
-costs no tensor dispatch. On a GPU, transitions are staged in host memory and copied over in one
+The fields are column blocks of one (capacity, width) table, so a batch is one gather of whole rows
+(not one per field). On the CPU the table is written through a numpy view of the same memory, so adding
+a transition costs no tensor dispatch. On a GPU, transitions are staged in host memory and copied over in one
 block before the next sample.
 """
 
@@ -18,12 +19,15 @@ class ReplayBuffer:
         self.capacity = capacity
         self.device = torch.device(device)
         widths = {"observations": obs_dim, "actions": act_dim, "next_observations": obs_dim, "rewards": 1, "not_terminated": 1}
-        self.storage = {name: torch.zeros(capacity, width, device=self.device) for name, width in widths.items()}
-        on_cpu = self.device.type == "cpu"
-        self._host = {
-            name: tensor.numpy() if on_cpu else np.zeros((capacity, widths[name]), dtype=np.float32)
-            for name, tensor in self.storage.items()
-        }
+        self.table = torch.zeros(capacity, sum(widths.values()), device=self.device)
+        self._columns = {}
+        start = 0
+        for name, width in widths.items():
+            self._columns[name] = slice(start, start + width)
+            start += width
+        self.storage = {name: self.table[:, columns] for name, columns in self._columns.items()}  # views of the table
+        self._host_table = self.table.numpy() if self.device.type == "cpu" else np.zeros(tuple(self.table.shape), dtype=np.float32)
+        self._host = {name: self._host_table[:, columns] for name, columns in self._columns.items()}
         self._pending_from = 0  # first count not yet copied to the device (GPU only)
         self.count = 0  # transitions ever added; row of transition k is k % capacity
 
@@ -46,8 +50,7 @@ class ReplayBuffer:
         if self.device.type == "cpu" or self._pending_from == self.count:
             return
         rows = torch.from_numpy(self.rows_since(self._pending_from))
-        for name, tensor in self.storage.items():
-            tensor[rows.to(self.device)] = torch.from_numpy(self._host[name][rows.numpy()]).to(self.device, non_blocking=True)
+        self.table[rows.to(self.device)] = torch.from_numpy(self._host_table[rows.numpy()]).to(self.device, non_blocking=True)
         self._pending_from = self.count
 
     def rows_since(self, count: int) -> np.ndarray:
@@ -58,7 +61,8 @@ class ReplayBuffer:
     def sample(self, batch_size: int, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
         self.flush()
         index = torch.randint(0, self.size, (batch_size,), device=self.device, generator=generator)
-        return {name: tensor[index] for name, tensor in self.storage.items()}
+        rows = self.table[index]
+        return {name: rows[:, columns] for name, columns in self._columns.items()}
 
     def state_dict(self) -> dict:
         self.flush()

@@ -3,8 +3,8 @@
 What is computed is textbook TD3 (``benchmarks/plain_td3.py`` is the straightforward reference, and
 tests check one update of each gives the same parameters). What differs is how: the twin critics
 are one stacked module (one batched matmul for both), the actor loss reads the critic through
-detached weights (no wasted critic gradients), Adam is fused, target updates are foreach ops, and
-nothing in an update asks the device for a Python number.
+detached weights (no wasted critic gradients), Adam is fused, the target updates are one foreach lerp per rate,
+and nothing in an update asks the device for a Python number.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from torch import nn
 
 from .config import TD3Config
 from .envs import EnvInfo
-from .nets import StackedMLP, mlp, soft_update
+from .nets import StackedMLP, mlp
 
 
 class Actor(nn.Module):
@@ -66,6 +66,9 @@ class TD3:
         self._noise_std = config.target_noise * scale
         self._noise_clip = config.target_noise_clip * scale
         self._low, self._high = self.actor.offset - scale, self.actor.offset + scale
+        # the Polyak pairs, listed once: every network that follows at rate tau, and the slower average
+        self._followers = [*self.critic_target.parameters(), *self.actor_target.parameters()]
+        self._leaders = [*self.critic.parameters(), *self.actor.parameters()]
         self.updates = 0
         self.last_critic_loss = torch.zeros((), device=self.device)
 
@@ -93,9 +96,9 @@ class TD3:
         cfg = self.config
         obs, actions = batch["observations"], batch["actions"]
         next_obs = batch["next_observations"]
-        with torch.no_grad():
-            noise = (torch.randn_like(actions) * self._noise_std).clamp(-self._noise_clip, self._noise_clip)
-            next_actions = (self.actor_target(next_obs) + noise).clamp(self._low, self._high)
+        with torch.no_grad():  # in-place where nothing else reads the tensor: the same values, fewer allocations
+            noise = torch.randn_like(actions).mul_(self._noise_std).clamp_(-self._noise_clip, self._noise_clip)
+            next_actions = self.actor_target(next_obs).add_(noise).clamp_(self._low, self._high)
             next_q = self.critic_target(torch.cat([next_obs, next_actions], 1)).amin(0)
             target = batch["rewards"] + cfg.gamma * batch["not_terminated"] * next_q
         q = self.critic(torch.cat([obs, actions], 1))
@@ -111,11 +114,10 @@ class TD3:
             self.actor_optimizer.zero_grad(set_to_none=True)
             actor_loss.backward()
             self.actor_optimizer.step()
-            with torch.no_grad():
-                soft_update(self.critic_target, self.critic, cfg.tau)
-                soft_update(self.actor_target, self.actor, cfg.tau)
+            with torch.no_grad():  # θ' ← θ' + τ(θ − θ'): the textbook (1−τ)θ' + τθ to rounding, in one pass
+                torch._foreach_lerp_(self._followers, self._leaders, cfg.tau)
                 if self.actor_average is not None:
-                    soft_update(self.actor_average, self.actor, self.average_tau)
+                    torch._foreach_lerp_(list(self.actor_average.parameters()), list(self.actor.parameters()), self.average_tau)
 
     def state_dict(self) -> dict:
         return {
