@@ -34,9 +34,9 @@ def evaluate(
         "Also print the normalized score 100·(R − R_random)/(R_expert − R_random). R_random and R_expert: for Hopper, "
         "HalfCheetah, Walker2d and Ant (AntNoContactForces too), whatever the version (-v5 included), D4RL's reference "
         "returns, measured on the -v2 tasks; for other tasks a Minari dataset's ref_min/max_score, else the demos' mean "
-        "return (or the bundled expert's) against a random policy's return measured on 10 episodes; for the PointMaze "
-        "tasks D4RL's maze2d(-dense) references, with the success rate and the % of our expert's return. The line printed "
-        "names the reference used.")),
+        "return (or the bundled expert's) against a random policy's return measured on 10 episodes; for PointMazeUMaze, "
+        "PointMazeMedium and PointMazeLarge D4RL's maze2d(-dense) references, with the success rate and the % of our "
+        "expert's return. The line printed names the reference used.")),
     demos: Optional[str] = typer.Option(None, "--demos", metavar="REF", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
     video: Optional[Path] = VIDEO,
     *,

@@ -36,7 +36,7 @@ def collect(
     if from_minari and from_file:
         raise LwailError("give one source: --from-minari or --from-file (neither: collect from a random policy)")
     if from_minari or from_file:
-        refuse_unread_settings(config, seed, settings="--transitions", reader="collecting from a random policy")
+        refuse_unread_settings(config, seed, settings="--transitions, --start-noise", reader="collecting from a random policy")
         artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
     else:
         with progress_bar(f"collect {env_id}", config.transitions) as report:
