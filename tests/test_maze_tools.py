@@ -103,3 +103,17 @@ def test_the_noise_plan_reads_and_its_dry_run_prints_the_grid_without_running(cl
     assert printed.output.strip().splitlines()[1:] == grid_lines(plan)
     assert not store.root.exists() or not any(store.root.iterdir())  # nothing ran
     assert cfg.with_overrides(cfg.ImitationConfig(), ["env.start_noise=0.5"]).env.start_noise == 0.5
+
+
+def test_a_log_row_with_new_columns_extends_an_older_file_and_keeps_its_rows(store):
+    import pandas as pd
+
+    from lwail_cli.stages.demos import import_bundled_demos
+
+    artifact = import_bundled_demos(store, env_id="InvertedPendulum-v5")
+    artifact.append_log("evals.csv", {"created": "then", "return_mean": 1.0})  # as an older lwail wrote it
+    artifact.append_log("evals.csv", {"created": "now", "return_mean": 2.0, "success_rate": 0.5})
+    artifact.append_log("evals.csv", {"return_mean": 3.0, "created": "later"})  # fewer columns, another order
+    rows = pd.read_csv(artifact.beside("evals.csv"))
+    assert list(rows.columns) == ["created", "return_mean", "success_rate"]
+    assert list(rows["return_mean"]) == [1.0, 2.0, 3.0] and rows["success_rate"].isna().tolist() == [True, False, True]
