@@ -8,7 +8,8 @@ and writes the env's entry in ``experts.json`` from the demos' and the expert's 
 D4RL-normalized score, training steps, wall time, the evaluation whose actor was kept and why, the command that
 continues training, and what a user's run may draw: how many episodes ran to the time limit and the lowest
 return against the mean (a one-trajectory run imitates the first episode, so every episode should be an
-expert's). The demos must come from ``lwail expert record`` of an ``lwail expert train`` policy.
+expert's). The demos must come from ``lwail expert record`` of an ``lwail expert train`` policy, or from the maze
+planner (``lwail demos import PointMaze... --planner``: its entry says so, with its success rate).
 
 ``--cut`` ships a bundled env's episodes for an env that observes a prefix of what it observes (the same task,
 e.g. AntNoContactForces-v5 of Ant-v5): each observation keeps its first entries, after a random rollout of both
@@ -35,8 +36,29 @@ from lwail_cli.loaders import load_demos, parent
 BUNDLE = Path(__file__).resolve().parents[1] / "src" / "lwail_cli" / "demos"
 
 
+def planner_entry(demos) -> dict:
+    """What experts.json says of the maze planner's demos: no training, its episodes' returns and success rate."""
+    noise = demos.config["env"]["start_noise"]
+    return {
+        "mean_return": demos.metrics["mean_return"], "return_std": demos.metrics["return_std"], "episodes": demos.metrics["episodes"],
+        "obs_dim": demos.env.obs_dim, "success_rate": demos.metrics["success_rate"],
+        "expert": (f"the maze planner (shortest path over the cells, PD control along it, as D4RL's maze2d), seed {demos.manifest['seed']} "
+                   f"(lwail demos import {demos.env.id} --planner --episodes {demos.metrics['episodes']} --seed {demos.manifest['seed']}"
+                   + (f" --start-noise {noise}" if noise else "") + ")"),
+    }
+
+
 def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
     demos = store.resolve(demos_ref, "demos")
+    entry = planner_entry(demos) if demos.config.get("source") == "planner" else trained_entry(store, demos)
+    reference = d4rl_reference(demos.env.id)
+    if reference is not None:
+        entry["d4rl_normalized"] = reference.normalize(entry["mean_return"])
+    return demos.env.id, demos.file("demos.npz"), entry
+
+
+def trained_entry(store: Store, demos) -> dict:
+    """What experts.json says of demos recorded from an `lwail expert train` policy."""
     expert = parent(store, demos, "policy")
     if expert.manifest.get("trained_on") != "true reward":
         raise SystemExit(f"{demos.ref} was not recorded from an `lwail expert train` policy")
@@ -44,7 +66,7 @@ def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
     episodes, returns = load_demos(demos)
     defaults = json.loads(json.dumps(cfg.to_dict(cfg.TD3Config())))
     overrides = "".join(f" --set td3.{k}={v}" for k, v in expert.config["td3"].items() if defaults[k] != v)
-    entry = {
+    return {
         "mean_return": demos.metrics["mean_return"],
         "return_std": demos.metrics["return_std"],
         "episodes": demos.metrics["episodes"],
@@ -60,10 +82,6 @@ def expert_entry(store: Store, demos_ref: str) -> tuple[str, Path, dict]:
             f"(lwail expert train {env_id} --steps {train['steps']} --eval-every {train['eval_every']}{overrides})"
         ),
     }
-    reference = d4rl_reference(env_id)
-    if reference is not None:
-        entry["d4rl_normalized"] = reference.normalize(entry["mean_return"])
-    return env_id, demos.file("demos.npz"), entry
 
 
 def observed_prefix(source_env: str, target_env: str, steps: int = 300, seed: int = 0) -> int:

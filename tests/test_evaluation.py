@@ -14,7 +14,7 @@ def test_d4rl_normalization_arithmetic():
 
 @pytest.mark.parametrize("env_id, family, published", [  # D4RL's REF_MIN_SCORE / REF_MAX_SCORE (d4rl/infos.py)
     ("HalfCheetah-v5", "halfcheetah", (-280.178953, 12135.0)), ("Walker2d-v5", "walker2d", (1.629008, 4592.3)),
-    ("Ant-v5", "ant", (-325.6, 3879.7)), ("PointMaze_UMaze-v3", "maze2d-umaze", (23.85, 161.86))])
+    ("Ant-v5", "ant", (-325.6, 3879.7)), ("PointMazeUMazeSparse-v0", "maze2d-umaze", (23.85, 161.86)), ("PointMazeMedium-v0", "maze2d-medium-dense", (44.264742, 297.4552547777125))])
 def test_d4rl_families_map_to_their_reference_values(env_id, family, published):
     low, high = D4RL_REFERENCES[family]
     reference = d4rl_reference(env_id)

@@ -92,14 +92,22 @@ class Artifact:
         return self.path / filename
 
     def append_log(self, filename: str, row: dict) -> Path:
-        """Append a row to a CSV that sits beside the artifact's data (not part of its hash)."""
+        """Append a row to a CSV that sits beside the artifact's data (not part of its hash). A row with columns the
+        file lacks (written by an older lwail) rewrites the file with them added, empty in its earlier rows."""
         target = self.beside(filename)
-        new = not target.exists()
-        with open(target, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(row))
-            if new:
+        rows, columns, rewrite = [], list(row), not target.exists()
+        if target.exists():
+            with open(target, newline="") as handle:
+                reader = csv.DictReader(handle)
+                header = list(reader.fieldnames or [])
+                rewrite = not set(columns) <= set(header)
+                rows = list(reader) if rewrite else []
+                columns = header + [column for column in columns if column not in header]
+        with open(target, "w" if rewrite else "a", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=columns, restval="")
+            if rewrite:
                 writer.writeheader()
-            writer.writerow(row)
+            writer.writerows([*rows, row])
         return target
 
 

@@ -72,19 +72,29 @@ class CriticConfig(Validated):
     standardize: bool = setting(False, "standardise each input of f by its mean and spread over data set I's pairs, so the gradient penalty acts in those units (issue 40's screen)")
 
 
+@dataclass(frozen=True)
+class EnvConfig(Validated):
+    """How each episode of the environment starts (every stage that plays episodes has one)."""
+
+    start_noise: float = setting(0.0, "std of Gaussian noise added to each episode's initial state, seeded (PointMaze tasks; the paper's navigation table)", low=0.0, high=10.0)
+
+
 # ------------------------------------------------------------------------------ one config per stage
 @dataclass(frozen=True)
 class CollectConfig(Validated):
+    env: EnvConfig = section(EnvConfig, "the environment's start")
     transitions: int = setting(10_000, "uniformly random policy transitions to collect", low=1, high=MAX_BUFFER)
 
 
 @dataclass(frozen=True)
 class RecordConfig(Validated):
+    env: EnvConfig = section(EnvConfig, "the environment's start")
     episodes: int = setting(10, "episodes to record from the policy", low=1, high=10_000)
 
 
 @dataclass(frozen=True)
 class ExpertConfig(Validated):
+    env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
 
@@ -134,6 +144,7 @@ class WarmupConfig(Validated):
 
 @dataclass(frozen=True)
 class ImitationConfig(Validated):
+    env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
     update_every: int = setting(4_000, "train f (and relabel the buffer) every this many env steps", low=1, high=MAX_STEPS)
@@ -143,6 +154,7 @@ class ImitationConfig(Validated):
 
 @dataclass(frozen=True)
 class EvalConfig(Validated):
+    env: EnvConfig = section(EnvConfig, "the environment's start")
     episodes: int = setting(10, "deterministic evaluation episodes", low=1, high=10_000)
     seed: int = setting(100, "seed of the first evaluation episode (the others count up)", low=0, high=2**31)
 

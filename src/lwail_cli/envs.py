@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass
 import gymnasium as gym
 import numpy as np
 
+from . import mazes
 from .errors import LwailError
 
 # Ant-v5 observing only its 27 positions and velocities: the same task and reward, without the 78 contact forces that
@@ -17,6 +18,7 @@ ANT_WITHOUT_CONTACT_FORCES = "AntNoContactForces-v5"
 if ANT_WITHOUT_CONTACT_FORCES not in gym.registry:
     gym.register(ANT_WITHOUT_CONTACT_FORCES, entry_point="gymnasium.envs.mujoco.ant_v5:AntEnv", max_episode_steps=1000,
                  kwargs={"include_cfrc_ext_in_observation": False})
+mazes.register()  # PointMazeUMaze-v0, PointMazeMediumSparse-v0, ...: D4RL's maze2d tasks
 
 
 @dataclass(frozen=True)
@@ -106,11 +108,16 @@ class CheckedEnv(gym.Wrapper):
         return LwailError(f"environment {self.env_id} failed {where}: {what}; fix the environment (lwail cannot learn from it)")
 
 
-def make_env(env_id: str, seed: int | None = None, render: bool = False) -> gym.Env:
+def make_env(env_id: str, seed: int | None = None, render: bool = False, start_noise: float = 0.0) -> gym.Env:
     """Create a gymnasium env with a flat Box observation and a bounded Box action, checked as it runs (``CheckedEnv``),
-    or explain why not."""
+    or explain why not. ``start_noise``: the std of the Gaussian noise on the initial state (the maze tasks only)."""
+    if start_noise < 0 or not math.isfinite(start_noise):
+        raise LwailError(f"the start-state noise must be a finite std of at least 0, got {start_noise!r}")
+    if start_noise > 0 and mazes.maze_of(env_id) is None:
+        raise LwailError(f"start-state noise (env.start_noise) is defined for the PointMaze tasks only, not {env_id}")
+    kwargs = ({"render_mode": "rgb_array"} if render else {}) | ({"start_noise": start_noise} if start_noise > 0 else {})
     try:
-        env = CheckedEnv(gym.make(env_id, render_mode="rgb_array") if render else gym.make(env_id), env_id)
+        env = CheckedEnv(gym.make(env_id, **kwargs), env_id)
     except gym.error.Error as exc:
         raise LwailError(f"unknown environment {env_id!r}: {exc}") from None
     except ImportError as exc:

@@ -9,7 +9,7 @@ import pandas as pd
 
 from .rollout import rollout
 
-# D4RL's reference returns (random, expert), from D4RL's infos.py.
+# D4RL's reference returns (random, expert), from D4RL's infos.py (REF_MIN_SCORE / REF_MAX_SCORE; maze2d: the -v1 entries).
 D4RL_REFERENCES: dict[str, tuple[float, float]] = {
     "hopper": (-20.272305, 3234.3),
     "halfcheetah": (-280.178953, 12135.0),
@@ -18,6 +18,9 @@ D4RL_REFERENCES: dict[str, tuple[float, float]] = {
     "maze2d-umaze": (23.85, 161.86),
     "maze2d-medium": (13.13, 277.39),
     "maze2d-large": (6.7, 273.99),
+    "maze2d-umaze-dense": (68.537689, 193.66285642381482),
+    "maze2d-medium-dense": (44.264742, 297.4552547777125),
+    "maze2d-large-dense": (30.569041, 303.4857382709002),
 }
 _D4RL_FAMILY = {
     "Hopper": "hopper",
@@ -25,9 +28,12 @@ _D4RL_FAMILY = {
     "Walker2d": "walker2d",
     "Ant": "ant",
     "AntNoContactForces": "ant",
-    "PointMaze_UMaze": "maze2d-umaze",
-    "PointMaze_Medium": "maze2d-medium",
-    "PointMaze_Large": "maze2d-large",
+    "PointMazeUMaze": "maze2d-umaze-dense",  # lwail's maze tasks (mazes.py): dense by default, as the authors ran them
+    "PointMazeMedium": "maze2d-medium-dense",
+    "PointMazeLarge": "maze2d-large-dense",
+    "PointMazeUMazeSparse": "maze2d-umaze",
+    "PointMazeMediumSparse": "maze2d-medium",
+    "PointMazeLargeSparse": "maze2d-large",
 }
 
 

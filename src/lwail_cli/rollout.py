@@ -23,6 +23,12 @@ class Rollouts:
     returns: np.ndarray  # (episodes,) float64 true returns, in seed order
     episodes: list[Episode]  # the episodes themselves when recorded (else empty), in seed order
     terminated: np.ndarray | None = None  # (episodes,) bool: ended by the environment (a fall), not by its time limit
+    successes: np.ndarray | None = None  # (episodes,) bool: the env's info["success"] at any step; None where it reports none
+
+    @property
+    def success_rate(self) -> float | None:
+        """The fraction of episodes that succeeded (the maze tasks: reached the goal), None for tasks without success."""
+        return None if self.successes is None else float(self.successes.mean())
 
 
 def rollout(
@@ -35,16 +41,17 @@ def rollout(
     on_step: Callable[[int], None] | None = None,
     on_frame: Callable[[int, np.ndarray], None] | None = None,
     frame_every: int = 1,
+    start_noise: float = 0.0,
 ) -> Rollouts:
     """One episode per seed; ``policy=None`` samples uniformly random actions.
 
     With ``transitions``, a single environment (one seed) plays episode after episode, later resets
     unseeded, until exactly that many transitions; the last episode, cut by the budget, is truncated.
     ``on_step`` gets the running count of transitions; ``on_frame`` (episode index, RGB frame) gets the first
-    frame of each episode and one every ``frame_every`` steps."""
+    frame of each episode and one every ``frame_every`` steps. ``start_noise``: ``make_env``'s."""
     if transitions is not None and len(seeds) != 1:
         raise ValueError("a transition budget runs one environment")
-    envs = [make_env(env_id, render=on_frame is not None) for _ in seeds]
+    envs = [make_env(env_id, render=on_frame is not None, start_noise=start_noise) for _ in seeds]
     try:
         observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds)]
         for index, (env, seed) in enumerate(zip(envs, seeds)):
@@ -61,8 +68,8 @@ def rollout(
                 actions = policy(np.stack([observations[i] for i in live]).astype(np.float32))
             still_live = []
             for i, action in zip(live, actions):
-                observations[i], reward, terminated, truncated, _ = envs[i].step(action)
-                traces[i].add(observations[i], action, reward, record)
+                observations[i], reward, terminated, truncated, info = envs[i].step(action)
+                traces[i].add(observations[i], action, reward, record, info)
                 steps += 1
                 if on_frame is not None and traces[i].length % frame_every == 0:
                     on_frame(i, envs[i].render())
@@ -87,6 +94,7 @@ def rollout(
         returns=np.array([trace.total for trace in done]),
         episodes=[trace.episode() for trace in done] if record else [],
         terminated=np.array([trace.terminated for trace in done], dtype=bool),
+        successes=np.array([bool(trace.success) for trace in done]) if done and all(trace.success is not None for trace in done) else None,
     )
 
 
@@ -97,9 +105,12 @@ class _Trace:
         self.total = 0.0
         self.length = 0
         self.terminated = False
+        self.success: bool | None = None  # None until the env reports info["success"]
         self.observations, self.actions, self.rewards = [first_observation], [], []
 
-    def add(self, observation, action, reward: float, record: bool) -> None:
+    def add(self, observation, action, reward: float, record: bool, info: dict) -> None:
+        if "success" in info:
+            self.success = bool(self.success) or bool(info["success"])
         self.total += reward
         self.length += 1
         if record:

@@ -71,19 +71,22 @@ class RunState:
     best_complete: bool = False  # no episode of the best evaluation ended early (``is_better``)
 
 
-def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel) -> dict[str, float]:
+def evaluate_policy(agent: TD3, train: TrainConfig, env_id: str, seed: int, reference: Reference | None, reward_model: RewardModel,
+                    start_noise: float = 0.0) -> dict[str, float]:
     """True return (and score) of the deterministic ``train.policy`` network, the reward model's diagnostics on the
     same episodes and, with ``train.evaluate_other``, each other network's return (and score) on those episodes too.
     The episodes are the run seed's evaluation stream: the same at every evaluation of a run."""
     seeds = stream_seeds(seed, "evaluation", train.eval_episodes)
-    evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True)
+    evaluation = rollout(env_id, partial(agent.act, which=train.policy), seeds, record=True, start_noise=start_noise)
     row = _scores(evaluation.returns, reference, "", std=True) | {"episodes_terminated": int(evaluation.terminated.sum())}
+    if evaluation.success_rate is not None:
+        row[curve.SUCCESS_RATE] = evaluation.success_rate
     values = agent.policy_values(np.concatenate([episode.observations for episode in evaluation.episodes]), which=train.policy)
     row |= {curve.Q_POLICY_MEAN: float(values.mean()), curve.Q_POLICY_STD: float(values.std())}
     row |= reward_model.metrics(evaluation)
     if train.evaluate_other:
         for other in (name for name in agent.networks() if name != train.policy):
-            row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds).returns, reference, f"{other}_")
+            row |= _scores(rollout(env_id, partial(agent.act, which=other), seeds, start_noise=start_noise).returns, reference, f"{other}_")
     return row
 
 
@@ -115,12 +118,14 @@ def train_td3(
     on_checkpoint: Callable[[dict], None] | None = None,
     on_evaluation: Callable[[RunState], None] | None = None,
     progress_every: int = 500,
+    start_noise: float = 0.0,
 ) -> RunState:
-    """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state.
+    """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state. ``start_noise``:
+    the start-state noise of every episode, trained on and evaluated (``make_env``).
 
     Seed torch before building ``agent`` (and anything else random) for a reproducible run."""
     reward_model = reward_model or EnvironmentReward()
-    env = make_env(env_id)
+    env = make_env(env_id, start_noise=start_noise)
     online_seed = stream_seeds(seed, "online")[0]
     obs, _ = env.reset(seed=online_seed)
     env.action_space.seed(online_seed)
@@ -137,7 +142,7 @@ def train_td3(
     def evaluate_now() -> None:
         run.wall_time = clock.elapsed()
         row = {"step": run.step, "wall_time": run.wall_time}
-        row.update(evaluate_policy(agent, train, env_id, seed, reference, reward_model))
+        row.update(evaluate_policy(agent, train, env_id, seed, reference, reward_model, start_noise))
         if is_better(row, run):
             run.best_actor = {k: v.detach().clone() for k, v in agent.network(train.policy).state_dict().items()}
             run.best_step, run.best_return, run.best_complete = run.step, row["return_mean"], row["episodes_terminated"] == 0

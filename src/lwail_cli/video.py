@@ -15,7 +15,8 @@ from .rollout import Policy, Rollouts, rollout
 VIDEO_FPS = 30  # frames kept per second of simulated time (MuJoCo tasks step at 67-125 Hz)
 
 
-def filmed_rollout(env_id: str, policy: Policy | None, seeds: Sequence[int], directory: Path, prefix: str, *, record: bool = False) -> tuple[Rollouts, list[Path]]:
+def filmed_rollout(env_id: str, policy: Policy | None, seeds: Sequence[int], directory: Path, prefix: str, *, record: bool = False,
+                  start_noise: float = 0.0) -> tuple[Rollouts, list[Path]]:
     """``rollout`` with one MP4 per episode in ``directory``, named ``<prefix>-seed<S>-return<R>.mp4``."""
     try:
         import imageio.v2 as imageio
@@ -35,7 +36,7 @@ def filmed_rollout(env_id: str, policy: Policy | None, seeds: Sequence[int], dir
 
     try:
         try:
-            played = rollout(env_id, policy, seeds, record=record, on_frame=on_frame, frame_every=every)
+            played = rollout(env_id, policy, seeds, record=record, on_frame=on_frame, frame_every=every, start_noise=start_noise)
         finally:
             for writer in writers.values():
                 writer.close()

@@ -20,8 +20,9 @@ from ..stages import export as export_stage
 from ..stages import online as online_stage
 from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
+from ..stages import reward_map as reward_map_stage
 from ..stages import sweep as sweep_stage
-from ..stages.sweep_plan import plan_from_dict, read_plan
+from ..stages.sweep_plan import grid_lines, plan_from_dict, read_plan
 from ..stages.shared import resolve_device
 from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
 
@@ -33,8 +34,9 @@ def evaluate(
         "Also print the normalized score 100·(R − R_random)/(R_expert − R_random). R_random and R_expert: for Hopper, "
         "HalfCheetah, Walker2d and Ant (AntNoContactForces too), whatever the version (-v5 included), D4RL's reference "
         "returns, measured on the -v2 tasks; for other tasks a Minari dataset's ref_min/max_score, else the demos' mean "
-        "return (or the bundled expert's) against a random policy's return measured on 10 episodes. The line printed "
-        "names the reference used.")),
+        "return (or the bundled expert's) against a random policy's return measured on 10 episodes; for PointMazeUMaze, "
+        "PointMazeMedium and PointMazeLarge D4RL's maze2d(-dense) references, with the success rate and the % of our "
+        "expert's return. The line printed names the reference used.")),
     demos: Optional[str] = typer.Option(None, "--demos", metavar="REF", help="With --normalized: demos whose return is the expert reference (default: the policy's own)."),
     video: Optional[Path] = VIDEO,
     *,
@@ -48,9 +50,14 @@ def evaluate(
 
 
 def _say_evaluation(result: dict) -> None:
-    typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes")
+    noise = f" (start noise {result['start_noise']:g})" if result.get("start_noise") else ""
+    typer.echo(f"{result['policy']}: return {result['return_mean']:.1f} ± {result['return_std']:.1f} over {result['episodes']} episodes{noise}")
+    if "success_rate" in result:
+        typer.echo(f"success rate {100 * result['success_rate']:.0f}%  (goal reached within its radius at some step)")
     if "normalized_score" in result:
         typer.echo(f"normalized score {result['normalized_score']:.1f}  (reference: {result['reference']})")
+    if "expert_percent" in result:
+        typer.echo(f"{result['expert_percent']:.1f}% of our expert's return")
     if result.get("not_logged"):
         warn([f"not appended to evals.csv: {result['not_logged']}"])
 
@@ -76,6 +83,16 @@ def curve(
         typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
     else:
         typer.echo(f"wrote {curve_stage.plot_curves(histories, path)}")
+
+
+@command(app, "reward-map")
+def reward_map(
+    critic: str = typer.Argument(..., metavar="CRITIC", help="A PointMaze discriminator (from `warmup-disc`) or an `imitate` policy, whose kept critic is drawn."),
+    per_cell: int = typer.Option(20, "--per-cell", metavar="N", help="Grid points per cell side."),
+    out: Optional[Path] = typer.Option(None, "--out", metavar="FILE", help="PNG to write (default: reward-map.png beside the critic's artifact)."),
+) -> None:
+    """Draw the learned reward σ(−f(φ(s), φ(s))) over the maze's (x, y) at zero velocity, walls drawn: the paper's figure."""
+    typer.echo(f"wrote {reward_map_stage.reward_map(store(), critic_ref=critic, per_cell=per_cell, out=out)}")
 
 
 @command(app, "quickstart")
@@ -116,9 +133,14 @@ def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str
 def sweep(
     plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
     address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path)."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid (each run, its arm's settings) and stop: nothing runs."),
 ) -> None:
-    """Run a grid of tasks × seeds × embeddings on Ray (one CPU each), skipping finished stages; then report."""
+    """Run a grid of tasks × seeds × embeddings (× an [axis]) on Ray (one CPU each), skipping finished stages; then report."""
     plan = read_plan(plan_file)
+    if dry_run:
+        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs")
+        typer.echo("\n".join(grid_lines(plan)))
+        return
     s = store()
     typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs into store {s.root.resolve()}")
 

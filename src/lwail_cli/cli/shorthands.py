@@ -19,6 +19,7 @@ from ..errors import LwailError
 from ..settings import read_assignments, with_values
 
 FLAGS: dict[type, dict[str, str]] = {  # config class -> its settings that have a flag: field -> flag
+    cfg.EnvConfig: {"start_noise": "--start-noise"},
     cfg.CollectConfig: {"transitions": "--transitions"},
     cfg.RecordConfig: {"episodes": "--episodes"},
     cfg.TrainConfig: {"steps": "--steps", "eval_every": "--eval-every", "checkpoint_every": "--checkpoint-every"},

@@ -36,7 +36,7 @@ def collect(
     if from_minari and from_file:
         raise LwailError("give one source: --from-minari or --from-file (neither: collect from a random policy)")
     if from_minari or from_file:
-        refuse_unread_settings(config, seed, settings="--transitions", reader="collecting from a random policy")
+        refuse_unread_settings(config, seed, settings="--transitions, --start-noise", reader="collecting from a random policy")
         artifact = collect_stage.import_dataset(store(), env_id=env_id, name=name, minari_id=from_minari, npz=from_file)
     else:
         with progress_bar(f"collect {env_id}", config.transitions) as report:
@@ -85,18 +85,21 @@ def demos_import(
     from_imitation: Optional[Path] = typer.Option(
         None, "--from-imitation", metavar="PATH", help="Trajectories saved by the imitation library (imitation.data.serialize.save: a folder, or its older .npz)."),
     from_sb3: Optional[Path] = typer.Option(None, "--from-sb3", metavar="FILE", help="Roll out a Stable-Baselines3 model.zip (read as data, never unpickled)."),
+    planner: bool = typer.Option(False, "--planner", help="Roll out the maze planner expert (PointMaze tasks: shortest path and PD control, as D4RL's maze2d)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     *,
     config: cfg.RecordConfig,
 ) -> None:
     """Import state-only demonstrations: a local Minari dataset, a .npz, imitation's trajectories, an SB3 model's
-    rollouts (--episodes of them), or the bundled set."""
-    if sum(map(bool, (bundled, from_sb3, from_minari, from_file, from_imitation))) > 1:
-        raise LwailError("give one source: --bundled, --from-sb3, --from-minari, --from-file or --from-imitation")
-    if from_sb3 is None:
-        refuse_unread_settings(config, seed, settings="--episodes", reader="--from-sb3 (a rollout)")
-    if bundled:
+    or the maze planner's rollouts (--episodes of them), or the bundled set."""
+    if sum(map(bool, (bundled, from_sb3, planner, from_minari, from_file, from_imitation))) > 1:
+        raise LwailError("give one source: --bundled, --from-sb3, --planner, --from-minari, --from-file or --from-imitation")
+    if from_sb3 is None and not planner:
+        refuse_unread_settings(config, seed, settings="--episodes, --start-noise", reader="--from-sb3 or --planner (a rollout)")
+    if planner:
+        say_written(demos_stage.planner_demos(store(), env_id=env_id, config=config, seed=seed, name=name))
+    elif bundled:
         say_written(demos_stage.import_bundled_demos(store(), env_id=env_id, name=name))
     elif from_sb3 is not None:
         say_written(demos_stage.import_sb3_demos(store(), env_id=env_id, model=from_sb3, config=config, seed=seed, name=name))

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import config as cfg
 from ..config import CollectConfig
 from ..data import Episode
 from ..envs import describe_env, make_env
@@ -27,9 +28,9 @@ def collect(
     # recorded steps are per-step arrays in Python lists, then copied into Minari's format: ~3 float64 copies + object overhead
     require_memory(config.transitions * (3 * 8 * (info.obs_dim + info.act_dim + 1) + 400), f"collecting {config.transitions} transitions")
     episodes = rollout(env_id, None, stream_seeds(seed, "collect"), record=True, transitions=config.transitions,
-                       on_step=None if on_progress is None else lambda done: on_progress(done, {})).episodes
+                       on_step=None if on_progress is None else lambda done: on_progress(done, {}), start_noise=config.env.start_noise).episodes
     name = name or default_name(env_id, "random")
-    return _write(store, name, info, episodes, {"source": "uniform-random", "transitions": config.transitions}, seed,
+    return _write(store, name, info, episodes, {"source": "uniform-random", **cfg.to_dict(config)}, seed,
                   "uniform-random", "uniform-random policy, state-only use", {})
 
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import config as cfg
 from ..config import RecordConfig
 from ..data import Episode, validate_episodes
 from ..envs import EnvInfo, describe_env, require_same_env
@@ -15,7 +16,9 @@ from ..errors import LwailError
 from ..formats.npz import npz_load_bytes, read_npz, write_npz
 from ..formats.sb3_zip import read_sb3_policy
 from ..loaders import load_demos, load_policy, policy_fn
+from ..mazes import TASKS, cell_center, maze_of
 from ..names import closest
+from ..planner import MazePlanner
 from ..rollout import rollout
 from ..video import filmed_rollout
 from .shared import default_name, read_external, require_memory
@@ -47,12 +50,26 @@ def import_sb3_demos(store: Store, *, env_id: str, model: Path, config: RecordCo
 def _record(store: Store, info: EnvInfo, act, config: RecordConfig, seed: int, name: str, source: str, parents: list,
             video_dir: Path | None, video_prefix: str) -> Artifact:
     seeds = range(seed, seed + config.episodes)
+    noise = config.env.start_noise
     if video_dir is None:
-        played = rollout(info.id, act, seeds, record=True)
+        played = rollout(info.id, act, seeds, record=True, start_noise=noise)
     else:
-        played, _ = filmed_rollout(info.id, act, seeds, video_dir, video_prefix, record=True)
+        played, _ = filmed_rollout(info.id, act, seeds, video_dir, video_prefix, record=True, start_noise=noise)
     episodes = [Episode(observations=e.observations, terminated=e.terminated) for e in played.episodes]  # states only
-    return _write_demos(store, name, info, episodes, played.returns, {"source": source, "episodes": config.episodes}, seed, parents)
+    return _write_demos(store, name, info, episodes, played.returns, {"source": source, **cfg.to_dict(config)}, seed, parents,
+                        success_rate=played.success_rate)
+
+
+def planner_demos(store: Store, *, env_id: str, config: RecordConfig, seed: int, name: str | None = None,
+                  video_dir: Path | None = None) -> Artifact:
+    """Episodes of the maze planner expert (shortest path over the cells, a PD controller along it: D4RL's maze2d)."""
+    maze = maze_of(env_id)
+    if maze is None:
+        raise LwailError(f"--planner drives the PointMaze tasks ({', '.join(TASKS)}), not {env_id}")
+    info = describe_env(env_id)
+    cells = maze.cells
+    planner = MazePlanner(cells, maze.goal_cell, cell_center(cells, maze.goal_cell))
+    return _record(store, info, planner, config, seed, name or default_name(env_id, "planner-demos"), "planner", [], video_dir, "planner")
 
 
 def import_demos(store: Store, *, env_id: str, name: str | None = None, minari_id: str | None = None, npz: Path | None = None,
@@ -94,13 +111,15 @@ def holds_bundled_demos(artifact: Artifact) -> bool:
 
 
 def _write_demos(store: Store, name: str, info: EnvInfo, episodes: list[Episode], returns: np.ndarray, config: dict, seed, parents,
-                 reuse_same_content: bool = False) -> Artifact:
+                 reuse_same_content: bool = False, success_rate: float | None = None) -> Artifact:
     validate_episodes(episodes, info, f"demos {name}")
     with store.create("demos", name, env=info, config=config, seed=seed, parents=parents, reuse_same_content=reuse_same_content) as writer:
         write_npz(writer.path("demos.npz"), episodes, returns)
         writer.metrics.update({"episodes": len(episodes), "transitions": int(sum(e.length for e in episodes))})
         if np.all(np.isfinite(returns)):
             writer.metrics.update({"mean_return": float(returns.mean()), "return_std": float(returns.std())})
+        if success_rate is not None:
+            writer.metrics["success_rate"] = success_rate
         for key in ("ref_min_score", "ref_max_score"):
             if key in config:
                 writer.metrics[key] = config[key]

@@ -99,6 +99,7 @@ def train_policy(
         resume=run.resume, on_checkpoint=run.save_checkpoint,
         on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
         on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history), progress_every=PROGRESS_EVERY,
+        start_noise=config.env.start_noise,
     )
     return TrainedPolicy(state, agent)
 

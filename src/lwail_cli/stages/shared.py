@@ -98,6 +98,13 @@ def reference_for_env(env_id: str, demos: Artifact | None = None) -> Reference |
     return Reference(random, expert, f"{source} ({expert:.1f}) vs measured random-policy return ({random:.1f})")
 
 
+def expert_return(env_id: str, demos: Artifact | None) -> float | None:
+    """Our expert's mean return on the task: the demos' (the policy's own, or those given), else the bundled expert's."""
+    if demos is not None and "mean_return" in demos.metrics:
+        return float(demos.metrics["mean_return"])
+    return bundled_experts().get(env_id, {}).get("mean_return")
+
+
 def require_memory(needed: int, what: str) -> None:
     """Refuse up front what would not fit: the OS grants huge zeroed tensors lazily and kills the run hours later."""
     available = available_memory()

@@ -6,10 +6,14 @@ its kind and its own overrides of the stages after collect (an ablation such as 
 of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
 plan, run after the first grid and reported with it. Every artifact of a run is named after the sweep, task, seed
 and arm; ``[labels]`` gives an arm the public name the report's tables and figures show (the arm's own by default).
+An ``[axis]`` table varies one setting as the grid varies seeds: ``setting = "env.start_noise"``, ``values = [0.0,
+0.5]`` (and a short ``name``, the field's by default) make each arm one arm per value, ``<arm>-<name><value>``, the
+setting given to every stage after collect whose config holds it (data set I stays shared by the arms of a seed).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,7 +27,8 @@ from .demos import bundled_demos_path
 PLAN_STAGES = (*CHAIN, "eval")
 EMBEDDINGS = ("icvf", "identity")
 GRID_KEYS = {"tasks", "seeds", "embeddings"}
-PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels"}
+PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels", "axis"}
+AXIS_KEYS = {"setting", "values", "name"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
 
 
@@ -115,6 +120,15 @@ class SweepPlan:
                              for name, variant in self.variants.items()}, "threads": self.threads}
 
 
+def grid_lines(plan: SweepPlan) -> list[str]:
+    """The plan as it will run: its overrides, then each run with its embedding kind and its arm's own overrides."""
+    lines = [f"[set] {stage}: {', '.join(assignments)}" for stage, assignments in plan.overrides.items()]
+    for run in plan.runs:
+        own = "; ".join(f"{stage}: {', '.join(assignments)}" for stage, assignments in plan.variants.get(run.kind, {}).items() if stage != "kind")
+        lines.append(f"{run.label} ({plan.embedding_kind(run.kind)})" + (f"  {own}" if own else ""))
+    return lines
+
+
 def read_plan(path: Path) -> SweepPlan:
     try:
         raw = tomllib.loads(Path(path).read_text())
@@ -152,6 +166,8 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
         raise LwailError(f"{source}: [labels] must map arms to non-empty public names, e.g. identity = \"no embedding\"")
     if not set(labels) <= arms:
         raise LwailError(f"{source}: [labels] names {sorted(set(labels) - arms)}, which are not arms of the plan ({sorted(arms)})")
+    if "axis" in raw:
+        grids, variants, labels = _along_axis(raw["axis"], f"{source}: [axis]", grids, variants, labels)
     plan = SweepPlan(name, grids, _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads, labels)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
@@ -162,6 +178,46 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
         for artifact_name in plan.names(run).values():
             check_name(artifact_name)
     return plan
+
+
+def _along_axis(axis, where: str, grids: tuple[Grid, ...], variants: dict, labels: dict) -> tuple[tuple[Grid, ...], dict, dict]:
+    """The grids, variants and labels with each arm made one variant per value of the axis's setting (given to every
+    stage after collect whose config holds it, after the arm's own overrides)."""
+    if not isinstance(axis, dict) or set(axis) - AXIS_KEYS or not {"setting", "values"} <= set(axis):
+        raise LwailError(f"{where} needs setting = \"section.field\" and values = [...] (and may hold a short name)")
+    setting, values = axis["setting"], axis["values"]
+    if not isinstance(setting, str) or not isinstance(values, list) or not values or len(set(map(str, values))) != len(values):
+        raise LwailError(f"{where}: 'setting' must name a setting as --set does, 'values' be a non-empty list of distinct values")
+    short = axis.get("name", setting.rpartition(".")[2])
+    if not isinstance(short, str):
+        raise LwailError(f"{where}: 'name' must be a short text naming the axis in the arms' names")
+    stages = [stage for stage in VARIANT_STAGES if _holds(stage, setting)]
+    if not stages:
+        raise LwailError(f"{where}: no stage after collect has the setting {setting!r}")
+    expanded, arms = {}, {}
+    for arm in dict.fromkeys(kind for grid in grids for kind in grid.kinds):
+        base = variants.get(arm, {"kind": arm})
+        for value in values:
+            text = str(value).lower() if isinstance(value, bool) else str(value)
+            point = f"{arm}-{short}{text}"
+            check_name(point)
+            extra = {stage: (*base.get(stage, ()), f"{setting}={text}") for stage in stages}
+            expanded[point] = {**base, **extra}
+            arms.setdefault(arm, []).append(point)
+            if arm in labels:
+                labels = {**labels, point: f"{labels[arm]}, {short} {text}"}
+    grids = tuple(Grid(grid.tasks, grid.seeds, tuple(point for kind in grid.kinds for point in arms[kind])) for grid in grids)
+    return grids, expanded, {arm: label for arm, label in labels.items() if arm in expanded}
+
+
+def _holds(stage: str, setting: str) -> bool:
+    """Whether the stage's config has the setting (``section.field``, as --set names it)."""
+    node = cfg.STAGES[stage]()
+    for part in setting.split("."):
+        if not dataclasses.is_dataclass(node) or part not in {f.name for f in dataclasses.fields(node)}:
+            return False
+        node = vars(node)[part]
+    return not dataclasses.is_dataclass(node)
 
 
 def _read_grid(table: dict, where: str, variants: dict, keys: set[str] | None = None) -> Grid:
