@@ -68,8 +68,9 @@ def test_without_ray_the_sweep_says_how_to_install_it(cli, store, monkeypatch):
     assert result.exit_code == 1 and 'pip install "lwail[sweep]"' in result.output
 
 
-def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli, store):
+def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli, store, monkeypatch):
     pytest.importorskip("ray")
+    monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:9")  # a cluster named elsewhere on this machine is not this sweep's
     result = cli("sweep", PLANS / "smoke.toml")
     assert result.exit_code == 0, result.output
     versions = {(kind, name): v for kind, name, v in committed_versions(store)}

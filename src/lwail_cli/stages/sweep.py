@@ -121,7 +121,9 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
     for run in plan.runs:  # what a killed sweep's runs last said is not what they do now
         store.runs.clear_sweep_status(plan.name, plan.names(run)["policy"])
-    ray.init(address=address, include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
+    # without an address, a private Ray instance: ray.init(None) would join whatever cluster RAY_ADDRESS or the
+    # last `ray start` on this machine names, another user's or a dead one
+    ray.init(address=address or "local", include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
