@@ -2,8 +2,8 @@
 area (``run_area.py``) and ``formats/`` (one file format each), the only code that touches paths and manifests.
 
 Layout: ``<store>/<kind>/<name>/v<N>/`` holding ``manifest.json`` and data files. A version is
-written into ``<store>/.tmp/`` and renamed into place only once every file is fsynced, so a crash
-never leaves a half-written version visible. Versions are immutable; a rerun writes ``v<N+1>``.
+written into ``<store>/.tmp/`` and renamed into place only once every file is fsynced (``version_writer.py``), so a
+crash never leaves a half-written version visible. Versions are immutable; a rerun writes ``v<N+1>``.
 Runs in progress keep their checkpoints under ``<store>/.runs/`` (``Store.runs``).
 """
 
@@ -14,20 +14,16 @@ import csv
 import json
 import os
 import re
-import shutil
-import socket
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
 
 from .envs import EnvInfo
 from .errors import LwailError
-from .manifests import KINDS, MANIFEST, content_hash, file_hash, malformed, manifest_hash, new_manifest, read_manifest
+from .manifests import KINDS, MANIFEST, content_hash, malformed, new_manifest, read_manifest
 from .names import check_name, closest, parse_ref
-from .run_area import RunArea, abandoned_by
-
-COMMIT_TRIES = 100  # version numbers tried before giving up on a store that other writers keep filling
+from .run_area import RunArea
+from .version_writer import ArtifactWriter, commit_version, staged_version
 
 
 def default_store() -> Path:
@@ -109,18 +105,6 @@ class Artifact:
                 writer.writeheader()
             writer.writerows([*rows, row])
         return target
-
-
-class ArtifactWriter:
-    """A version being written: files go into ``directory``; metrics may be added until commit."""
-
-    def __init__(self, directory: Path):
-        self.directory = directory
-        self.metrics: dict = {}
-        self.artifact: Artifact | None = None  # the version this writer committed (not the latest: writers race)
-
-    def path(self, filename: str) -> Path:
-        return self.directory / filename
 
 
 class Store:
@@ -271,18 +255,15 @@ class Store:
         if kind not in KINDS:
             raise ValueError(f"unknown artifact kind {kind}")
         check_name(name)
-        tmp_root = self.root / ".tmp"
-        tmp_root.mkdir(parents=True, exist_ok=True)
-        _remove_abandoned(tmp_root)
-        # the writer's host and pid in the name, so a later writer can tell an abandoned folder from a live one
-        directory = Path(tempfile.mkdtemp(prefix=f"{socket.gethostname()}+{os.getpid()}+{kind}-{name}-", dir=tmp_root))
-        writer = ArtifactWriter(directory)
-        try:
+        with staged_version(self.root, kind, name) as writer:
             yield writer
             existing = self._latest_with_same_content(writer, kind, name, env, config) if reuse_same_content else None
-            writer.artifact = existing or self._load(self._commit(writer, kind, name, env, config, seed, parents, extra or {}))
-        finally:
-            shutil.rmtree(directory, ignore_errors=True)
+            if existing is None:
+                lineage = [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents]
+                manifest = new_manifest(kind, name, env, config, seed, lineage, writer.metrics, writer.file_hashes(), extra or {})
+                next_version = (self._versions(kind, name) or [0])[-1] + 1
+                existing = self._load(commit_version(writer, manifest, self.root / kind / name, next_version))
+            writer.artifact = existing
 
     def _latest_with_same_content(self, writer, kind, name, env, config) -> Artifact | None:
         """The latest version of ``kind/name`` if its content hash is the one ``writer``'s files would get (only the
@@ -294,54 +275,6 @@ class Store:
             latest = self._load(self.root / kind / name / f"v{versions[-1]}")
         except LwailError:
             return None
-        hashes = {str(target.relative_to(writer.directory)): file_hash(target) for target in writer.directory.rglob("*") if target.is_file()}
-        if latest.hash != content_hash(hashes, None if env is None else env.to_dict(), config):
+        if latest.hash != content_hash(writer.file_hashes(), None if env is None else env.to_dict(), config):
             return None
         return replace(latest, reused=True)
-
-    def _commit(self, writer, kind, name, env, config, seed, parents, extra) -> Path:
-        file_hashes = {}
-        for target in sorted(writer.directory.rglob("*")):
-            if target.is_file():
-                _fsync(target)
-                file_hashes[str(target.relative_to(writer.directory))] = file_hash(target)
-        lineage = [{"ref": p.ref, "hash": p.hash, "manifest_hash": p.manifest["manifest_hash"]} for p in parents]
-        manifest = new_manifest(kind, name, env, config, seed, lineage, writer.metrics, file_hashes, extra)
-        parent_dir = self.root / kind / name
-        parent_dir.mkdir(parents=True, exist_ok=True)
-        version = (self._versions(kind, name) or [0])[-1] + 1
-        for _ in range(COMMIT_TRIES):
-            manifest["version"] = version
-            manifest["manifest_hash"] = manifest_hash(manifest)
-            manifest_path = writer.directory / MANIFEST
-            manifest_path.write_text(json.dumps(manifest, indent=2))
-            _fsync(manifest_path)
-            try:
-                os.rename(writer.directory, parent_dir / f"v{version}")
-                break
-            except OSError as exc:
-                if not (parent_dir / f"v{version}").exists():  # not a concurrent writer: a store we cannot write
-                    raise LwailError(f"cannot write {parent_dir / f'v{version}'}: {exc.strerror or exc}") from None
-                version += 1  # a concurrent writer took this version number
-        else:
-            raise LwailError(f"gave up writing {kind}/{name}: {COMMIT_TRIES} version numbers were taken by other writers")
-        _fsync(parent_dir)
-        return parent_dir / f"v{version}"
-
-
-def _remove_abandoned(tmp_root: Path) -> None:
-    """Delete the temp folders of writers on this host that were killed mid-write (never a live writer's)."""
-    for folder in tmp_root.iterdir():
-        host, _, rest = folder.name.partition("+")
-        pid = rest.partition("+")[0]
-        if pid.isdigit() and abandoned_by(host, int(pid)):
-            shutil.rmtree(folder, ignore_errors=True)
-
-
-def _fsync(path: Path) -> None:
-    """Wait until a file, or a folder's list of entries, is on disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
