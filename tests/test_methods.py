@@ -1,6 +1,8 @@
 """The imitation methods' registry and its entries (methods/): each learner's reward checked by numbers, each entry
 run end to end from the CLI, a new method's resume bit for bit, and the refusals of a wrong --method or --disc."""
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,6 +17,8 @@ from lwail_cli.methods.gaifo import GaifoTrainer
 from lwail_cli.methods.pwil import PrimalWassersteinReward
 from lwail_cli.replay import ReplayBuffer
 from lwail_cli.stages import collect, demos, embed, imitate
+from lwail_cli.stages.chain import CHAIN, chain_for, reads
+from lwail_cli.stages.sweep_plan import read_plan
 
 ENV = "InvertedPendulum-v5"
 CPU = torch.device("cpu")
@@ -79,7 +83,7 @@ def test_a_baseline_imitates_end_to_end_from_the_cli(pendulum, store, method):
     result = pendulum("imitate", ENV, "--demos", "ip", "--embedding", "ident", "--method", method, "--name", method, "--set", setting, *TINY)
     assert result.exit_code == 0, result.output
     policy = store.resolve(method, "policy")
-    assert policy.config["method"] == method and policy.manifest["trained_on"].startswith(method.upper())
+    assert policy.config["method"] == method and policy.manifest["trained_on"] == METHODS[method].trained_on
     assert policy.config[method] == cfg.to_dict(cfg.with_overrides(cfg.ImitationConfig(), [setting]))[method]
     assert policy.parent_kinds == ["demos", "embedding"]
     assert policy.file("discriminator.safetensors").is_file() == (method == "gaifo")
@@ -130,3 +134,11 @@ def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
 
 def _curve(policy):
     return pd.read_csv(policy.file("learning_curve.csv")).drop(columns="wall_time")
+
+
+def test_a_plan_varies_methods_as_it_varies_embeddings_and_only_lwail_warms_up_a_discriminator():
+    plan = read_plan(Path(__file__).parents[1] / "plans" / "methods-mujoco.toml")
+    methods = {arm: (plan.embedding_kind(arm), plan.config("imitate", arm).method) for arm in plan.kinds}
+    assert methods == {f"{kind}-{method}": (kind, method) for kind in ("icvf", "identity") for method in ("lwail", "gaifo", "pwil")}
+    assert chain_for("lwail") == CHAIN and chain_for("gaifo") == chain_for("pwil") == ("collect", "pretrain-icvf", "imitate")
+    assert reads("imitate", "lwail") == ("demos", "embedding", "discriminator") and reads("imitate", "pwil") == ("demos", "embedding")

@@ -39,7 +39,8 @@ class Inputs:
 @dataclass(frozen=True)
 class Method:
     name: str  # as --method names it (one of config.METHODS)
-    title: str  # what the policy artifact says it was trained on, and its figures' title
+    label: str  # its public name, in figures and tables
+    trained_on: str  # what its policy artifacts say they were trained on
     reads_discriminator: bool  # needs a warmed-up f (`lwail warmup-disc`, --disc); a method that does not refuses one
     caches_features: bool  # keeps every buffered pair's features (the replay memory check counts them)
     build: Callable[[Inputs], Learner]

@@ -1,4 +1,4 @@
-"""LWAIL (Liu et al., "Latent Wasserstein Adversarial Imitation Learning"): the reward σ(−f) of the WGAN-GP critic f,
+"""LWAIL (Yang et al., "Latent Wasserstein Adversarial Imitation Learning"): the reward σ(−f) of the WGAN-GP critic f,
 warmed up by `lwail warmup-disc` and trained online on the adversarial schedule of ``imitation.AdversarialReward``."""
 
 from __future__ import annotations
@@ -15,4 +15,4 @@ def build(inputs: Inputs) -> AdversarialReward:
                              update_steps=config.update_steps, random_features=inputs.random)
 
 
-METHOD = Method("lwail", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build)
+METHOD = Method("lwail", "LWAIL", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build)

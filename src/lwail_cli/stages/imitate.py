@@ -58,13 +58,13 @@ def imitate(
         ))
         trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
                                reward_model=reward_model, reference=reference, on_progress=on_progress)
-        with store.create("policy", name, env=info, config=record, seed=seed, parents=parents, extra={"trained_on": method.title}) as writer:
+        with store.create("policy", name, env=info, config=record, seed=seed, parents=parents, extra={"trained_on": method.trained_on}) as writer:
             write_curve(writer.path(learning_curve.FILE), trained.state)
             save_weights(writer.path("actor.safetensors"), trained.agent.network(config.train.policy).state_dict())
             for filename, weights in reward_model.weights().items():
                 save_weights(writer.path(filename), weights)
             plot_run(pd.DataFrame(trained.state.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"),
-                     f"{method.name.upper()} on {env_id}")
+                     f"{method.label} on {env_id}")
             writer.metrics.update(final_metrics(trained.state, reference))
     return writer.artifact
 
