@@ -53,6 +53,9 @@ def test_every_config_field_of_every_stage_is_read(store, reads):
     learner = imitate.imitate(store, env_id=ENV, demos_ref=recorded.ref, embedding_ref=embedding.ref, disc_ref=disc.ref,
                               config=config, seed=0, device=device)
     evaluate.evaluate(store, policy_ref=learner.ref, config=cfg.EvalConfig(episodes=1))
+    for method in ("gaifo", "pwil"):  # the baselines' own settings (methods/)
+        imitate.imitate(store, env_id=ENV, demos_ref=recorded.ref, embedding_ref=embedding.ref, config=cfg.with_overrides(config, [f"method={method}"]),
+                        seed=0, device=device, name=method)
     unread = sorted(
         f"{config_type.__name__}.{name}"
         for config_type in _config_types() for name in config_type.__dataclass_fields__

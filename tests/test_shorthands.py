@@ -47,9 +47,12 @@ def configured(cli, monkeypatch):
     return run
 
 
+TEXT_VALUES = {"kind": "identity", "method": "gaifo"}  # the text flags (--kind, --method): another choice
+
+
 def _other_value(shorthand: shorthands.Shorthand) -> str:
-    """A value the setting accepts that is not its default (--kind is the one text flag)."""
-    return "identity" if shorthand.key == "kind" else str(shorthand.default + 1)
+    """A value the setting accepts that is not its default."""
+    return TEXT_VALUES[shorthand.key] if shorthand.key in TEXT_VALUES else str(shorthand.default + 1)
 
 
 def _value(config, key: str):

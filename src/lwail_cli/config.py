@@ -19,6 +19,7 @@ MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps tak
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
+METHODS = ("lwail", "gaifo", "pwil")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
 
 
 # ------------------------------------------------------------------------------ shared sections
@@ -143,13 +144,35 @@ class WarmupConfig(Validated):
 
 
 @dataclass(frozen=True)
+class GaifoConfig(Validated):
+    """GAIfO's discriminator D on the pair features (methods/gaifo.py; trained on LWAIL's update_every schedule)."""
+
+    hidden: tuple[int, ...] = setting((64, 64), "hidden widths of D (ReLU), as LWAIL's f", low=1, high=4096)
+    lr: float = setting(1e-3, "Adam learning rate of D", low=1e-7, high=1.0)
+    gp_weight: float = setting(10.0, "weight λ of the gradient penalty (‖∇D‖ − 1)² at expert-policy interpolates (DAC)", low=0.0, high=1e4)
+
+
+@dataclass(frozen=True)
+class PwilConfig(Validated):
+    """PWIL's reward: greedy coupling with the expert's pairs within each episode (methods/pwil.py)."""
+
+    alpha: float = setting(5.0, "reward scale α of α·exp(−β·T·c/√d) (the paper's 5)", low=0.0, high=1e4)
+    beta: float = setting(5.0, "kernel width β (the paper's 5)", low=0.0, high=1e4)
+    time_horizon: int = setting(1_000, "T: an episode's transitions share the expert's mass, 1/T each (the MuJoCo episode length)", low=1, high=MAX_STEPS)
+    subsampling: int = setting(20, "keep every this many expert pairs as an atom (the paper's 20)", low=1, high=10_000)
+
+
+@dataclass(frozen=True)
 class ImitationConfig(Validated):
     env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
-    update_every: int = setting(4_000, "train f (and relabel the buffer) every this many env steps", low=1, high=MAX_STEPS)
-    update_steps: int = setting(40, "full-batch steps of f per update (paper: 40, authors' code: 30)", low=0, high=100_000)
+    method: str = setting("lwail", "the reward learner: lwail (σ(−f), needs --disc), gaifo or pwil (docs/algorithm.md)", choices=METHODS)
+    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo)", low=1, high=MAX_STEPS)
+    update_steps: int = setting(40, "full-batch steps of f or D per update (paper: 40, authors' code: 30)", low=0, high=100_000)
     expert_episodes: int = setting(1, "expert trajectories to imitate", low=1, high=10_000)
+    gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (method gaifo)")
+    pwil: PwilConfig = section(PwilConfig, "PWIL's reward (method pwil)")
 
 
 @dataclass(frozen=True)

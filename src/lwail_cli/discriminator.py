@@ -15,6 +15,7 @@ import torch
 from torch import nn
 
 from .config import CriticConfig
+from .learning_curve import WASSERSTEIN
 from .nets import mlp
 
 
@@ -76,7 +77,11 @@ def critic_loss(critic: Critic, expert: torch.Tensor, policy: torch.Tensor, conf
 
 
 class DiscriminatorTrainer:
-    """Full-batch critic updates: as many expert rows, drawn with replacement, as there are policy rows."""
+    """Full-batch critic updates: as many expert rows, drawn with replacement, as there are policy rows (LWAIL's
+    adversary in ``imitation.AdversarialReward``)."""
+
+    FILE = "critic.safetensors"  # where a policy artifact keeps the final f
+    ESTIMATE = WASSERSTEIN  # what the loss measures beside itself (kept as last_wasserstein), as the learning curve names it
 
     def __init__(self, critic: Critic, config: CriticConfig):
         self.critic = critic
@@ -89,15 +94,28 @@ class DiscriminatorTrainer:
         """``steps`` updates; each draws expert rows (with replacement) to match the policy rows."""
         for _ in range(steps):
             index = torch.randint(0, expert.shape[0], (policy.shape[0],), device=expert.device)
-            loss, self.last_wasserstein = critic_loss(self.critic, expert[index], policy, self.config)
+            loss, self.last_wasserstein = self.loss(expert[index], policy)
             self.optimizer.zero_grad(set_to_none=True)
             loss.backward()
             self.optimizer.step()
         return self.last_wasserstein
 
+    def loss(self, expert: torch.Tensor, policy: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The loss to minimise and its ``ESTIMATE``."""
+        return critic_loss(self.critic, expert, policy, self.config)
+
     @torch.no_grad()
     def reward(self, features: torch.Tensor) -> torch.Tensor:
-        return torch.sigmoid(-self.critic(features))
+        return self.rewarded(self.critic(features))
+
+    @staticmethod
+    def rewarded(scores: torch.Tensor) -> torch.Tensor:
+        """The pseudo-reward σ(−f) of critic outputs (differentiable)."""
+        return torch.sigmoid(-scores)
+
+    def estimate(self) -> dict[str, float]:
+        """What the last update measured, as the learning curve names it."""
+        return {self.ESTIMATE: float(self.last_wasserstein)}
 
     def state_dict(self) -> dict:
         return {"critic": self.critic.state_dict(), "optimizer": self.optimizer.state_dict(), "last_wasserstein": self.last_wasserstein}

@@ -1,14 +1,16 @@
-"""LWAIL's reward schedule inside the TD3 loop (paper Alg. 1; docs/algorithm.md).
+"""An adversarial reward's schedule inside the TD3 loop: LWAIL's (paper Alg. 1; docs/algorithm.md), and GAIfO's.
 
-A new transition is rewarded with the current f as it enters the buffer. Critic inputs
-``[φ(s), φ(s')−φ(s)]`` are cached (φ is frozen) one update window at a time. Every ``update_every`` env steps f is trained on the last
-``update_every`` policy transitions against expert transitions, then every reward in the buffer is
-relabelled to σ(−f) with the new f, so all rewards always come from the current f.
+A new transition is rewarded with the current adversary (LWAIL's critic f, GAIfO's discriminator D) as it enters the
+buffer. Its inputs ``[φ(s), φ(s')−φ(s)]`` are cached (φ is frozen) one update window at a time. Every ``update_every``
+env steps the adversary is trained on the last ``update_every`` policy transitions against expert transitions, then
+every reward in the buffer is relabelled with the new adversary (σ(−f) for LWAIL), so all rewards always come from the
+current one. The adversary is a trainer with ``Adversary``'s interface (``discriminator.DiscriminatorTrainer``,
+``methods.gaifo.GaifoTrainer``).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import torch
@@ -18,7 +20,8 @@ from .discriminator import transition_features
 from .evaluation import spearman
 
 if TYPE_CHECKING:
-    from .discriminator import DiscriminatorTrainer
+    from torch import nn
+
     from .icvf import Encoder
     from .replay import ReplayBuffer
     from .rollout import Rollouts
@@ -26,9 +29,28 @@ if TYPE_CHECKING:
 RELABEL_CHUNK = 65_536
 
 
+class Adversary(Protocol):
+    FILE: str  # where a policy artifact keeps the final network
+    critic: nn.Module  # the network's raw score of a pair's features
+
+    def train(self, expert: torch.Tensor, policy: torch.Tensor, steps: int) -> torch.Tensor: ...
+
+    def reward(self, features: torch.Tensor) -> torch.Tensor: ...
+
+    def rewarded(self, scores: torch.Tensor) -> torch.Tensor:
+        """The reward of raw scores, differentiable."""
+
+    def estimate(self) -> dict[str, float]:
+        """What the last update measured, as the learning curve names it."""
+
+    def state_dict(self) -> dict: ...
+
+    def load_state_dict(self, state: dict) -> None: ...
+
+
 class AdversarialReward:
     def __init__(
-        self, encoder: Encoder, trainer: DiscriminatorTrainer, expert_features: torch.Tensor, capacity: int, *,
+        self, encoder: Encoder, trainer: Adversary, expert_features: torch.Tensor, capacity: int, *,
         update_every: int, update_steps: int, random_features: torch.Tensor | None = None,
     ):
         self.encoder = encoder
@@ -82,12 +104,15 @@ class AdversarialReward:
                            curve.REWARD_SLOPE: self._reward_slope(buffer, recent),
                            curve.CRITIC_SHIFT: (self.trainer.critic(self.features[recent]) - f_before).abs().mean()}
 
+    def end_episode(self) -> None:
+        pass
+
     @torch.enable_grad()
     def _reward_slope(self, buffer: ReplayBuffer, rows: torch.Tensor) -> torch.Tensor:
-        """Mean ‖∂σ(−f)/∂s'‖ over the pairs ``rows``: how much the reward changes with what the action reaches."""
+        """Mean ‖∂r/∂s'‖ (r = σ(−f) for LWAIL) over the pairs ``rows``: how much the reward changes with what the action reaches."""
         states = buffer.storage["observations"][rows]
         next_states = buffer.storage["next_observations"][rows].clone().requires_grad_(True)
-        reward = torch.sigmoid(-self.trainer.critic(transition_features(self.encoder, states, next_states)))
+        reward = self.trainer.rewarded(self.trainer.critic(transition_features(self.encoder, states, next_states)))
         (slope,) = torch.autograd.grad(reward.sum(), next_states)
         return slope.norm(dim=-1).mean().detach()
 
@@ -100,21 +125,25 @@ class AdversarialReward:
 
     @torch.no_grad()
     def metrics(self, evaluation: Rollouts) -> dict[str, float]:
-        """What explains a run at an evaluation: the reward f gives expert, recent-policy and random-policy
-        pairs, how much it varies over the policy's pairs and how far f moved at its last update, the critic's
-        Wasserstein estimate, and whether the pseudo-return ranks the evaluation episodes as their true return does."""
+        """What explains a run at an evaluation: the reward the adversary gives expert, recent-policy and random-policy
+        pairs, how much it varies over the policy's pairs and how far its score moved at its last update, what its
+        last update measured (f's Wasserstein estimate), and whether the pseudo-return ranks the evaluation episodes as their true return does."""
         reward = self.trainer.reward
         pseudo_returns = np.array([self._pseudo_return(episode.observations) for episode in evaluation.episodes])
         return {
             curve.REWARD_EXPERT: float(reward(self.expert_features).mean()),
             curve.REWARD_RANDOM: float(reward(self.random_features).mean()) if self.random_features is not None else float("nan"),
-            curve.WASSERSTEIN: float(self.trainer.last_wasserstein),
+        } | self.trainer.estimate() | {
             curve.PSEUDO_RETURN_SPEARMAN: spearman(pseudo_returns, evaluation.returns),
         } | {name: float(value) for name, value in self.recent.items()}
 
     def _pseudo_return(self, observations: np.ndarray) -> float:
         states = torch.as_tensor(observations, device=self.expert_features.device)
         return float(self.trainer.reward(transition_features(self.encoder, states[:-1], states[1:])).sum())
+
+    def weights(self) -> dict[str, dict]:
+        """The files of learned weights a policy artifact keeps (the final adversary)."""
+        return {self.trainer.FILE: self.trainer.critic.state_dict()}
 
     def state_dict(self) -> dict:
         # features are not saved (they can be GBs): the restored buffer holds the current rewards,

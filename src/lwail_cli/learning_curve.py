@@ -22,6 +22,7 @@ REWARDS = {  # column -> legend
     REWARD_RANDOM: "σ(−f) on random-policy pairs",
 }
 WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spearman"
+DISCRIMINATOR_LOSS = "discriminator_loss"  # GAIfO's D instead of f: its cross-entropy at its last update (methods/gaifo.py)
 # how much the reward tells the policy apart (issue 40: a saturated f gives a flat reward), at the last update of f:
 # the spread of σ(−f) over the latest policy pairs, the mean slope ‖∂σ(−f)/∂s'‖ of that reward in the raw next state
 # (through φ: what an action can change), and the mean |Δf| on those pairs over the update (how far f moved)
@@ -33,7 +34,7 @@ SUCCESS_RATE = "success_rate"  # tasks whose env reports info["success"] (the ma
 
 # the columns `lwail curve` prints, in this order, where a curve has them (the rest stay in the file)
 TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score", SUCCESS_RATE,
-         *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, PSEUDO_RETURN_SPEARMAN,
+         *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, DISCRIMINATOR_LOSS, PSEUDO_RETURN_SPEARMAN,
          PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, Q_POLICY_MEAN, Q_POLICY_STD, "episodes_terminated")
 
 LAST_FRACTION = 0.1  # "the last 100k" of a 1M-step run: the evaluations after step 0.9·N

@@ -51,7 +51,8 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
         bottom = axes[1, 0]
         for column in rewards:
             bottom.plot(history["step"], history[column], label=REWARDS[column])
-        bottom.set(ylabel="reward", ylim=(0, 1))
+        bounded = all(history[column].max() <= 1 for column in rewards)  # σ(−f) is; GAIfO's and PWIL's rewards are not
+        bottom.set(ylabel="reward", ylim=(0, 1) if bounded else (0, None))
         bottom.legend(fontsize=8)
         bottom.grid(alpha=0.3)
     axes[-1, 0].set(xlabel="environment steps")

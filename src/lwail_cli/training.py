@@ -1,7 +1,8 @@
-"""The online TD3 loop shared by expert training (true reward) and LWAIL (pseudo-reward).
+"""The online TD3 loop shared by expert training (true reward) and imitation (a learned reward).
 
 One TD3 update per environment step. A reward model decides what the buffer's rewards are: the
-environment's own (experts) or σ(−f) relabelled as f changes (LWAIL, ``imitation.py``). The loop
+environment's own (experts) or an imitation method's (``methods/``: LWAIL's σ(−f) relabelled as f changes, GAIfO's,
+PWIL's); the loop asks it for rewards, lets it update and checkpoints it without knowing which it is. The loop
 reports through callbacks and hands its whole state (``resumable.capture``) to a callback; it never prints or touches paths.
 """
 
@@ -32,6 +33,9 @@ class RewardModel(Protocol):
     def prepare(self, step: int, buffer: ReplayBuffer) -> None:
         """Make the buffer's rewards current before the update of env step ``step``."""
 
+    def end_episode(self) -> None:
+        """The transition ``prepare`` last rewarded ended an episode (terminated or truncated)."""
+
     def metrics(self, evaluation: Rollouts) -> dict[str, float]:
         """Diagnostics logged beside each evaluation (a fixed set of keys per reward model)."""
 
@@ -44,6 +48,9 @@ class EnvironmentReward:
     """The true reward, stored as collected (an expert, or the paper's TD3 baseline)."""
 
     def prepare(self, step: int, buffer: ReplayBuffer) -> None:
+        pass
+
+    def end_episode(self) -> None:
         pass
 
     def metrics(self, evaluation: Rollouts) -> dict[str, float]:
@@ -165,13 +172,16 @@ def train_td3(
             buffer.add(obs, action, reward, next_obs, terminated)
             run.episode_return += float(reward)
             run.step += 1
-            if terminated or truncated:
+            ended = terminated or truncated
+            if ended:
                 run.episode_returns.append(run.episode_return)
                 run.episode_return = 0.0
                 obs, _ = env.reset()
             else:
                 obs = next_obs
             reward_model.prepare(run.step, buffer)
+            if ended:
+                reward_model.end_episode()
             if run.step >= td3.learning_starts:
                 agent.update(buffer.sample(td3.batch_size))
             if run.step % train.eval_every == 0 or run.step == train.steps:

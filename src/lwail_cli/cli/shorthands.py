@@ -26,7 +26,7 @@ FLAGS: dict[type, dict[str, str]] = {  # config class -> its settings that have 
     cfg.EmbedConfig: {"kind": "--kind"},
     cfg.ICVFConfig: {"steps": "--steps", "batch_size": "--batch-size", "embedding_dim": "--embedding-dim"},
     cfg.WarmupConfig: {"expert_episodes": "--expert-episodes"},
-    cfg.ImitationConfig: {"expert_episodes": "--expert-episodes"},
+    cfg.ImitationConfig: {"method": "--method", "expert_episodes": "--expert-episodes"},
     cfg.EvalConfig: {"episodes": "--episodes", "seed": "--seed"},
 }
 SET = typer.Option([], "--set", metavar="KEY=VALUE", help="Override any hyper-parameter: field=value or section.field=value (see `lwail defaults`). Repeatable, "

@@ -154,7 +154,7 @@ def imitate(
     env_id: str = typer.Argument(..., metavar="ENV_ID", help="Environment to imitate in."),
     demos: str = typer.Option(..., "--demos", metavar="REF", help="Demos artifact."),
     embedding: str = typer.Option(..., "--embedding", metavar="REF", help="Embedding artifact."),
-    disc: str = typer.Option(..., "--disc", metavar="REF", help="Warmed-up discriminator artifact (f keeps the loss it was warmed up with)."),
+    disc: Optional[str] = typer.Option(None, "--disc", metavar="REF", help="Warmed-up discriminator artifact, for --method lwail (f keeps the loss it was warmed up with)."),
     seed: int = SEED,
     name: Optional[str] = NAME,
     device: str = DEVICE,
@@ -162,7 +162,7 @@ def imitate(
     *,
     config: cfg.ImitationConfig,
 ) -> None:
-    """Imitate with TD3 on the LWAIL pseudo-reward σ(−f(φ(s), φ(s')))."""
+    """Imitate with TD3 on an imitation method's reward: LWAIL's σ(−f(φ(s), φ(s'))) (the default), GAIfO's or PWIL's."""
     with progress_bar(f"imitate {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = imitate_stage.imitate(
             store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,

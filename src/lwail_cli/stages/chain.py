@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..methods import METHODS
 from .collect import collect
 from .embed import embed
 from .imitate import imitate
@@ -25,8 +26,19 @@ READS = {  # the artifacts (by kind) each stage reads, in the order a sweep fing
     "collect": (),
     "pretrain-icvf": ("dataset", "demos"),
     "warmup-disc": ("embedding", "demos"),
-    "imitate": ("demos", "embedding", "discriminator"),
+    "imitate": ("demos", "embedding", "discriminator"),  # the discriminator only for a method that reads one
 }
+
+
+def chain_for(method: str) -> tuple[str, ...]:
+    """The stages of ``CHAIN`` a run of the imitation ``method`` needs: warmup-disc only if the method reads f."""
+    return tuple(stage for stage in CHAIN if stage != "warmup-disc" or METHODS[method].reads_discriminator)
+
+
+def reads(stage: str, method: str) -> tuple[str, ...]:
+    """The artifact kinds ``stage`` reads in a run of ``method`` (``READS`` less what the chain does not make)."""
+    made = {MAKES[before] for before in chain_for(method)} | {"demos"}
+    return tuple(kind for kind in READS[stage] if kind in made)
 
 
 def run_stage(
@@ -43,7 +55,8 @@ def run_stage(
         return warmup(store, embedding_ref=made["embedding"].ref, demos_ref=made["demos"].ref, config=config, seed=seed,
                       name=name, device=device, on_progress=on_progress)
     if stage == "imitate":
+        disc = made["discriminator"] if METHODS[config.method].reads_discriminator else None
         return imitate(store, env_id=env_id, demos_ref=made["demos"].ref, embedding_ref=made["embedding"].ref,
-                       disc_ref=made["discriminator"].ref, config=config, seed=seed, name=name, device=device, resume=resume,
+                       disc_ref=disc.ref if disc else None, config=config, seed=seed, name=name, device=device, resume=resume,
                        on_progress=on_progress)
     raise ValueError(f"{stage} is not a stage of the chain {CHAIN}")

@@ -119,7 +119,7 @@ def run_row(plan: SweepPlan, entry: RunCurve) -> dict:
     wall_time = float(curve["wall_time"].iloc[-1]) if "wall_time" in curve else float("nan")
     return {
         "task": run.task, "arm": run.kind, "label": plan.label(run.kind), "embedding": plan.embedding_kind(run.kind),
-        "seed": run.seed, "source": entry.source, "env_steps": steps, "expert_return": entry.expert_return,
+        "method": plan.config("imitate", run.kind).method, "seed": run.seed, "source": entry.source, "env_steps": steps, "expert_return": entry.expert_return,
         **curve_figures(curve, steps),
         **{figure + EXPERT_PCT: value for figure, value in curve_figures(curve, steps, "expert_pct").items()},
         "evaluations_after_half": len(later),
@@ -131,7 +131,7 @@ def run_row(plan: SweepPlan, entry: RunCurve) -> dict:
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """Per task × arm: mean and std over seeds of each figure; the IQM of the score over seeds with its 95% bootstrap
     interval and the lowest seed's score, each normalized and in % of our expert; the seed count, the mean wall time
-    and speed, and the paper's figure for the task and embedding kind where it reports one."""
+    and speed, and the paper's LWAIL figure for the task and embedding kind where it reports one (LWAIL arms only)."""
     grouped = runs.groupby(["task", "arm"], sort=False)
     figures = [*FIGURES, *(figure + EXPERT_PCT for figure in FIGURES)]
     summary = grouped[figures].agg(["mean", "std"])
@@ -149,8 +149,9 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     summary["env_steps_per_s"] = grouped["env_steps_per_s"].mean()
     summary["env_steps"] = grouped["env_steps"].first()
     summary["expert_return"] = grouped["expert_return"].first()
-    paper = [paper_score(task, embedding) or (float("nan"), float("nan"))
-             for task, embedding in zip(summary.index.get_level_values("task"), grouped["embedding"].first())]
+    summary["method"] = grouped["method"].first()  # an arm is one embedding and one imitation method
+    paper = [(paper_score(task, embedding) if method == "lwail" else None) or (float("nan"), float("nan"))
+             for task, embedding, method in zip(summary.index.get_level_values("task"), grouped["embedding"].first(), summary["method"])]
     summary["paper_mean"], summary["paper_std"] = [mean for mean, _ in paper], [std for _, std in paper]
     return summary.reset_index()
 

@@ -20,7 +20,7 @@ from .. import config as cfg
 from ..artifacts import Store
 from ..errors import LwailError
 from ..loaders import read_curve
-from .chain import CHAIN, MAKES, READS, run_stage
+from .chain import MAKES, chain_for, reads, run_stage
 from .demos import holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
 from .sweep_plan import SweepPlan, SweepRun, plan_from_dict
@@ -77,11 +77,12 @@ def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_
     names = plan.names(run)
     status = functools.partial(store.runs.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
     made = {"demos": store.resolve(demos_ref, "demos"), "dataset": store.resolve(data_ref, "dataset")}
-    for stage in CHAIN[1:]:
+    method = plan.config("imitate", kind).method  # the arm's imitation method: a warm-up only for one that reads f
+    for stage in chain_for(method)[1:]:
         status(STATUS[stage])
         config, made_kind = plan.config(stage, kind), MAKES[stage]
         name = names[made_kind]
-        made[made_kind] = _once(store, plan, made_kind, name, _record(config, seed, *(made[read] for read in READS[stage])),
+        made[made_kind] = _once(store, plan, made_kind, name, _record(config, seed, *(made[read] for read in reads(stage, method))),
                                 lambda: run_stage(store, stage, made=made, env_id=task, config=config, seed=seed, device=device, name=name,
                                                   resume=store.runs.has_checkpoint(made_kind, name)))
     status("evaluating")

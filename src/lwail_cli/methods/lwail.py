@@ -1,0 +1,18 @@
+"""LWAIL (Yang et al., "Latent Wasserstein Adversarial Imitation Learning"): the reward σ(−f) of the WGAN-GP critic f,
+warmed up by `lwail warmup-disc` and trained online on the adversarial schedule of ``imitation.AdversarialReward``."""
+
+from __future__ import annotations
+
+from ..discriminator import DiscriminatorTrainer
+from ..imitation import AdversarialReward
+from .base import Inputs, Method
+
+
+def build(inputs: Inputs) -> AdversarialReward:
+    config = inputs.config
+    trainer = DiscriminatorTrainer(inputs.critic, inputs.critic_config)  # f keeps the loss and learning rate it was warmed up with
+    return AdversarialReward(inputs.encoder, trainer, inputs.expert, inputs.capacity, update_every=config.update_every,
+                             update_steps=config.update_steps, random_features=inputs.random)
+
+
+METHOD = Method("lwail", "LWAIL", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build)
