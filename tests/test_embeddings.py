@@ -10,6 +10,7 @@ from safetensors.torch import load_file
 
 from lwail_cli import config as cfg
 from lwail_cli.contrastive import info_nce
+from lwail_cli.curl import pretrain_curl
 from lwail_cli.embeddings import EMBEDDINGS, embedding, unread_settings
 from lwail_cli.errors import LwailError
 from lwail_cli.infonce import pretrain_infonce
@@ -21,7 +22,7 @@ from conftest import write_states_npz
 from test_lwail import chain_episodes
 
 ENV = "InvertedPendulum-v5"
-CONTRASTIVE = {"infonce": pretrain_infonce}
+CONTRASTIVE = {"infonce": pretrain_infonce, "curl": pretrain_curl}
 TINY = {"steps": 300, "batch_size": 64, "hidden": (32,), "embedding_dim": 16, "log_every": 100}
 
 
@@ -134,10 +135,13 @@ def test_settings_another_kind_would_read_are_refused_with_one_line(cli, store, 
     bad = cli("pretrain-icvf", "data", "--kind", "infonce", "--set", "infonce.temperature=0")
     assert bad.exit_code == 1 and len(bad.output.strip().splitlines()) == 1 and "infonce.temperature must be at least" in bad.output
     assert cli("pretrain-icvf", "data", "--kind", "infonce", "--set", "infonce.batch_size=1").exit_code == 1  # InfoNCE needs a negative
+    noisy = cli("pretrain-icvf", "data", "--kind", "curl", "--set", "curl.noise=-1")
+    assert noisy.exit_code == 1 and len(noisy.output.strip().splitlines()) == 1 and "curl.noise must be at least 0" in noisy.output
     assert store.list() == before
     # the identity reads icvf.holdout_fraction (its probe's split), so icvf settings beside it stay accepted, as before
     assert unread_settings(cfg.with_overrides(cfg.EmbedConfig(), ["kind=identity", "icvf.steps=5"])) == []
     assert unread_settings(cfg.with_overrides(cfg.EmbedConfig(), ["kind=icvf", "infonce.lr=0.01"])) == ["infonce.lr"]
+    assert unread_settings(cfg.with_overrides(cfg.EmbedConfig(), ["kind=infonce", "curl.noise=0.5"])) == ["curl.noise"]
 
 
 def test_icvf_and_identity_artifacts_record_and_load_as_before(store):

@@ -150,14 +150,24 @@ class InfoNCEConfig(ContrastiveConfig):
     """PW-DICE's embedding: the positive of s is its next state s'."""
 
 
-EMBEDDING_KINDS = ("icvf", "identity", "infonce")  # one entry each in embeddings.EMBEDDINGS (tests/test_embeddings.py)
+@dataclass(frozen=True)
+class CURLConfig(ContrastiveConfig):
+    """CURL's embedding: the positive of s is another noisy copy of s, encoded by a slow (EMA) copy of φ."""
+
+    grad_clip: float = setting(0.0, "clip the gradient's norm at this (0: never, as CURL)", low=0.0, high=1e6)
+    tau: float = setting(0.05, "Polyak rate of the key encoder, the EMA of φ (CURL's encoder_tau)", low=0.0, high=1.0)
+    noise: float = setting(0.1, "std of each copy's Gaussian noise, times each dimension's std over data set I", low=0.0, high=10.0)
+
+
+EMBEDDING_KINDS = ("icvf", "identity", "infonce", "curl")  # one entry each in embeddings.EMBEDDINGS (tests/test_embeddings.py)
 
 
 @dataclass(frozen=True)
 class EmbedConfig(Validated):
-    kind: str = setting("icvf", "icvf, identity (the paper's no-embedding ablation) or infonce (PW-DICE's); docs/algorithm.md", choices=EMBEDDING_KINDS)
+    kind: str = setting("icvf", "icvf, identity (the paper's no-embedding ablation), infonce (PW-DICE's) or curl; docs/algorithm.md", choices=EMBEDDING_KINDS)
     icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (the identity reads only holdout_fraction, for its probe)")
     infonce: InfoNCEConfig = section(InfoNCEConfig, "InfoNCE settings, next state as the positive (kind infonce)")
+    curl: CURLConfig = section(CURLConfig, "CURL settings, noisy copies as positives (kind curl)")
 
 
 @dataclass(frozen=True)

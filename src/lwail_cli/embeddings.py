@@ -4,7 +4,7 @@ stage (``stages/embed.py``), the loader (``loaders.load_encoder``), the command 
 registry; none of them names a kind.
 
 To add an embedding: its algorithm module (a ``pretrain_<kind>(episodes, obs_dim, config, seed, device, **loop) ->
-pretraining.EmbeddingResult`` whose φ is a ``nets.embedding_net``, e.g. ``infonce.py``), its settings (a config class
+pretraining.EmbeddingResult`` whose φ is a ``nets.embedding_net``, e.g. ``curl.py``), its settings (a config class
 in config.py, its section of ``EmbedConfig`` named as the kind, the kind in ``config.EMBEDDING_KINDS``), its line
 below, and its test (tests/test_embeddings.py).
 """
@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import config as cfg
+from .curl import pretrain_curl
 from .errors import LwailError
 from .icvf import pretrain_icvf
 from .infonce import pretrain_infonce
@@ -59,6 +60,7 @@ EMBEDDINGS: dict[str, Embedding] = {entry.name: entry for entry in (
     Embedding("icvf", cfg.ICVFConfig, pretrain_icvf),
     Embedding("identity", None, None),
     Embedding("infonce", cfg.InfoNCEConfig, pretrain_infonce),
+    Embedding("curl", cfg.CURLConfig, pretrain_curl),
 )}
 
 
