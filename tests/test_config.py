@@ -4,6 +4,7 @@ import json
 import pytest
 
 from lwail_cli import config as cfg
+from lwail_cli.embeddings import EMBEDDINGS
 from lwail_cli.errors import LwailError
 
 
@@ -98,6 +99,7 @@ def test_the_settings_a_resume_may_change_are_declared_on_them_and_listed_in_the
 
     online = ("train.steps", "train.eval_every", "train.eval_episodes", "train.checkpoint_every", "train.average_tau")
     assert cfg.resume_may_change(cfg.ExpertConfig) == cfg.resume_may_change(cfg.ImitationConfig) == online
-    assert cfg.resume_may_change(cfg.EmbedConfig) == ("icvf.log_every", "icvf.checkpoint_every")
-    assert "icvf.log_every and icvf.checkpoint_every may differ." in resume_option(cfg.EmbedConfig, "pre-training").help
+    embedded = tuple(f"{kind}.{key}" for kind, entry in EMBEDDINGS.items() if entry.trained for key in ("log_every", "checkpoint_every"))
+    assert cfg.resume_may_change(cfg.EmbedConfig) == embedded  # each trained embedding's own section
+    assert f"{embedded[-2]} and {embedded[-1]} may differ." in resume_option(cfg.EmbedConfig, "pre-training").help
     assert "train.checkpoint_every and train.average_tau may differ" in resume_option(cfg.ImitationConfig, "run").help

@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from lwail_cli import config as cfg
+from lwail_cli.embeddings import EMBEDDINGS
 from lwail_cli.stages import collect, demos, embed, evaluate, expert, imitate, warmup
 
 ENV = "InvertedPendulum-v5"
@@ -47,6 +48,10 @@ def test_every_config_field_of_every_stage_is_read(store, reads):
     data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
     icvf = cfg.ICVFConfig(steps=4, batch_size=8, hidden=(8,), embedding_dim=8, log_every=2)
     embedding = embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(icvf=icvf), seed=0, device=device)
+    # the other trained embeddings' settings, each read by its own kind
+    for kind in [name for name, entry in EMBEDDINGS.items() if entry.trained and name != "icvf"]:
+        contrastive = [f"kind={kind}", f"{kind}.steps=4", f"{kind}.batch_size=8", f"{kind}.hidden=8", f"{kind}.embedding_dim=8", f"{kind}.log_every=2"]
+        embed.embed(store, data_ref=data.ref, config=cfg.with_overrides(cfg.EmbedConfig(), contrastive), seed=0, device=device)
     warm = cfg.WarmupConfig(critic=cfg.CriticConfig(hidden=(8,)), steps=2, transitions=50)
     disc = warmup.warmup(store, embedding_ref=embedding.ref, demos_ref=recorded.ref, config=warm, seed=0, device=device)
     config = cfg.ImitationConfig(td3=td3, train=train, update_every=200, update_steps=1)

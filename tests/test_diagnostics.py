@@ -10,7 +10,8 @@ from lwail_cli import config as cfg
 from lwail_cli import learning_curve
 from lwail_cli.data import Episode
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer
-from lwail_cli.icvf import Encoder, probe_critic_needs
+from lwail_cli.nets import Encoder
+from lwail_cli.probes import probe_critic_needs
 from lwail_cli.data import transition_pairs
 from lwail_cli.imitation import AdversarialReward
 from lwail_cli.loaders import load_critic, load_dataset, load_encoder, parent

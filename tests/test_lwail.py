@@ -9,7 +9,8 @@ from lwail_cli.loaders import load_policy
 from lwail_cli.data import Episode
 from lwail_cli.errors import LwailError
 from lwail_cli.discriminator import Critic, DiscriminatorTrainer, critic_loss, gradient_penalty, transition_features
-from lwail_cli.icvf import Encoder, GoalSampler, pretrain_icvf
+from lwail_cli.icvf import GoalSampler, pretrain_icvf
+from lwail_cli.nets import Encoder
 from lwail_cli.imitation import AdversarialReward
 from lwail_cli.replay import ReplayBuffer
 

@@ -130,9 +130,45 @@ class ICVFConfig(Validated):
 
 
 @dataclass(frozen=True)
+class ContrastiveConfig(Validated):
+    """What the contrastive embeddings share (contrastive.py): φ shaped as ICVF's, a bilinear score, Adam."""
+
+    steps: int = setting(10_000, "gradient steps (as ICVF's default)", low=1, high=MAX_STEPS)
+    batch_size: int = setting(512, "anchors per gradient step; each one's negatives are the batch's other positives", low=2, high=65_536)
+    hidden: tuple[int, ...] = setting((256,), "hidden widths of φ before the embedding layer (as ICVF's φ)", low=1, high=4096)
+    embedding_dim: int = setting(256, "dimension of φ(s)", low=1, high=4096)
+    layer_norm: str = setting("after", "LayerNorm in φ: after each GELU, none or before it (as icvf.layer_norm)", choices=LAYER_NORMS)
+    lr: float = setting(1e-3, "Adam learning rate of φ and W (PW-DICE's and CURL's)", low=1e-7, high=1.0)
+    temperature: float = setting(1.0, "the bilinear score φ(a)ᵀWφ(p) is divided by this (1: the references' unscaled score)", low=1e-4, high=1e4)
+    grad_clip: float = setting(1.0, "clip the gradient's norm at this (0: never)", low=0.0, high=1e6)
+    holdout_fraction: float = setting(0.1, "episodes held out of training for the quality probe", low=0.0, below=1.0)
+    log_every: int = setting(500, "log the loss and probe every this many steps", low=1, high=MAX_STEPS, resume_may_change=True)
+    checkpoint_every: int = setting(5_000, "checkpoint the pre-training every this many steps (resume: --resume)", low=1, high=MAX_STEPS, resume_may_change=True)
+
+
+@dataclass(frozen=True)
+class InfoNCEConfig(ContrastiveConfig):
+    """PW-DICE's embedding: the positive of s is its next state s'."""
+
+
+@dataclass(frozen=True)
+class CURLConfig(ContrastiveConfig):
+    """CURL's embedding: the positive of s is another noisy copy of s, encoded by a slow (EMA) copy of φ."""
+
+    grad_clip: float = setting(0.0, "clip the gradient's norm at this (0: never, as CURL)", low=0.0, high=1e6)
+    tau: float = setting(0.05, "Polyak rate of the key encoder, the EMA of φ (CURL's encoder_tau)", low=0.0, high=1.0)
+    noise: float = setting(0.1, "std of each copy's Gaussian noise, times each dimension's std over data set I", low=0.0, high=10.0)
+
+
+EMBEDDING_KINDS = ("icvf", "identity", "infonce", "curl")  # one entry each in embeddings.EMBEDDINGS (tests/test_embeddings.py)
+
+
+@dataclass(frozen=True)
 class EmbedConfig(Validated):
-    kind: str = setting("icvf", "icvf, or identity for the paper's no-embedding ablation", choices=("icvf", "identity"))
-    icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (unused by the identity)")
+    kind: str = setting("icvf", "icvf, identity (the paper's no-embedding ablation), infonce (PW-DICE's) or curl; docs/algorithm.md", choices=EMBEDDING_KINDS)
+    icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (the identity reads only holdout_fraction, for its probe)")
+    infonce: InfoNCEConfig = section(InfoNCEConfig, "InfoNCE settings, next state as the positive (kind infonce)")
+    curl: CURLConfig = section(CURLConfig, "CURL settings, noisy copies as positives (kind curl)")
 
 
 @dataclass(frozen=True)

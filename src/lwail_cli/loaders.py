@@ -20,9 +20,10 @@ from .data import Episode
 from .formats.minari_hdf5 import read_minari_directory
 from .formats.npz import read_npz
 from .discriminator import Critic
+from .embeddings import embedding
 from .errors import LwailError
-from .icvf import Encoder
 from .learning_curve import FILES as CURVE_FILES
+from .nets import Encoder
 from .td3 import Actor
 
 if TYPE_CHECKING:
@@ -66,10 +67,10 @@ def policy_fn(actor: Actor) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def load_encoder(artifact: Artifact, device: torch.device | str = "cpu") -> Encoder:
-    record = artifact.config
-    icvf_config = cfg.from_dict(cfg.ICVFConfig, record["icvf"]) if record["type"] == "icvf" else None
-    encoder = Encoder(record["obs_dim"], icvf_config)
-    if icvf_config is not None:
+    """φ of an embedding artifact, rebuilt by the entry of its recorded type (``embeddings.py``)."""
+    entry = embedding(artifact.config["type"])
+    encoder = entry.encoder(artifact.config)
+    if entry.trained:
         load_weights(encoder, artifact, "phi.safetensors")
     return encoder.to(device).requires_grad_(False).eval()
 

@@ -1,13 +1,15 @@
-"""Network building blocks shared by ICVF, the discriminator and TD3, and the Polyak target update.
+"""Network building blocks shared by the embeddings, the discriminator and TD3, and the Polyak target update.
 
 ``StackedMLP`` holds ``members`` independent MLPs (TD3's twin critics, ICVF's ensemble) as stacked
-weights so that all members run as one batched matmul instead of one small matmul each.
+weights so that all members run as one batched matmul instead of one small matmul each. Every trained embedding's
+φ has one shape (``embedding_net``), so one ``Encoder`` serves them all downstream.
 """
 
 from __future__ import annotations
 
 import math
 from functools import partial
+from typing import Protocol
 
 import torch
 import torch.nn.functional as F
@@ -104,3 +106,37 @@ class StackedMLP(nn.Module):
         if detach:
             gain, shift = gain.detach(), shift.detach()
         return F.layer_norm(x, x.shape[-1:]) * gain + shift
+
+
+class EmbeddingShape(Protocol):
+    """The settings that shape φ (every trained embedding's config has them)."""
+
+    hidden: tuple[int, ...]
+    embedding_dim: int
+    layer_norm: str
+
+
+def embedding_net(members: int, in_dim: int, shape: EmbeddingShape) -> StackedMLP:
+    """φ (and ICVF's ψ and T): GELU layers, the last one activated too, LayerNorm where ``shape.layer_norm`` says."""
+    return StackedMLP(members, in_dim, shape.hidden, shape.embedding_dim, activation="gelu", activate_final=True, layer_norm=shape.layer_norm)
+
+
+class Encoder(nn.Module):
+    """The frozen φ used downstream: one trained ``embedding_net``, or the identity (``shape`` None)."""
+
+    def __init__(self, obs_dim: int, shape: EmbeddingShape | None):
+        super().__init__()
+        self.net = embedding_net(1, obs_dim, shape) if shape is not None else None
+        self.dim = shape.embedding_dim if shape is not None else obs_dim
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return obs if self.net is None else self.net(obs)[0]
+
+
+def export_encoder(phi: StackedMLP, obs_dim: int, shape: EmbeddingShape) -> Encoder:
+    """A frozen copy of member 0 of a trained φ."""
+    with torch.random.fork_rng(devices=[]):  # its throw-away initialization must not shift training's random stream
+        encoder = Encoder(obs_dim, shape)
+    member_zero = {name: tensor[0:1].detach().clone() for name, tensor in phi.state_dict().items()}
+    encoder.net.load_state_dict(member_zero)
+    return encoder.requires_grad_(False).eval()

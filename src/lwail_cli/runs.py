@@ -57,9 +57,11 @@ def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, 
 def _refuse_another_run(kind: str, name: str, recorded: dict, record: dict, may_change: tuple[str, ...]) -> None:
     changed = [key for key in record if _what_trains(recorded.get(key), may_change) != _what_trains(record[key], may_change)]
     if changed:
+        # named only where the run records the setting's section (an embedding records its own kind's alone)
+        recorded_here = [setting for setting in may_change if setting.partition(".")[0] in record["config"]]
         raise LwailError(
             f"the checkpoint of {kind}/{name} was made with another {' and '.join(changed)}; "
-            f"rerun with the same options (only {', '.join(may_change)} may differ), or without --resume"
+            f"rerun with the same options (only {', '.join(recorded_here)} may differ), or without --resume"
         )
 
 

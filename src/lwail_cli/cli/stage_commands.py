@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from .. import config as cfg
+from ..embeddings import embedding, unread_settings
 from ..errors import LwailError
 from ..stages import collect as collect_stage
 from ..stages import demos as demos_stage
@@ -119,8 +120,14 @@ def pretrain_icvf(
     *,
     config: cfg.EmbedConfig,
 ) -> None:
-    """Pre-train the ICVF state embedding φ on state-only data and report its quality probe."""
-    total = config.icvf.steps if config.kind == "icvf" else 0
+    """Pre-train the state embedding φ of --kind (ICVF by default; `lwail defaults pretrain-icvf` lists the kinds) on
+    state-only data and report its quality probe."""
+    unread = unread_settings(config)
+    if unread:
+        raise LwailError(f"--kind {config.kind} does not read {', '.join(unread)}; give its own settings as --set {config.kind}.FIELD=VALUE "
+                         f"(see `lwail defaults pretrain-icvf`)")
+    settings = embedding(config.kind).settings(config)
+    total = settings.steps if settings is not None else 0
     with progress_bar("pretrain-icvf", total) as report:
         artifact = embed_stage.embed(
             store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report,

@@ -1,4 +1,5 @@
-"""Stage: the state embedding φ — ICVF pre-trained on data set I, or the identity (the no-embedding ablation)."""
+"""Stage: the state embedding φ of the kind ``embed.kind`` names (``embeddings.EMBEDDINGS``), trained on data set I, or
+the identity (the no-embedding ablation)."""
 
 from __future__ import annotations
 
@@ -6,9 +7,10 @@ from typing import TYPE_CHECKING
 
 from .. import config as cfg
 from ..data import validate_episodes
+from ..embeddings import embedding
 from ..envs import require_same_env
-from ..icvf import probe_critic_needs, pretrain_icvf, probe_spearman, split_episodes
 from ..loaders import load_dataset, load_demos, save_weights
+from ..probes import probe_critic_needs, probe_spearman, split_episodes
 from ..runs import open_run, run_record
 from .shared import Progress, default_name
 
@@ -32,7 +34,8 @@ def embed(
     episodes = load_dataset(dataset)
     validate_episodes(episodes, info, f"dataset {dataset.ref}")
     name = name or default_name(info.id, config.kind)
-    held_out = split_episodes(episodes, config.icvf.holdout_fraction, seed)[1]
+    entry = embedding(config.kind)
+    held_out = split_episodes(episodes, getattr(config, entry.own_section()).holdout_fraction, seed)[1]
     expert = None if demos is None else load_demos(demos)[0]
 
     def critic_probe(encode, suffix: str) -> dict:
@@ -43,17 +46,16 @@ def embed(
 
     raw = critic_probe(lambda x: x, "_raw")
     parents = [dataset] + ([demos] if demos is not None else [])
-    if config.kind == "identity":
+    record = entry.record(config, info.obs_dim)
+    if not entry.trained:
         probe = probe_spearman(lambda x: x, held_out)
-        record = {"type": "identity", "obs_dim": info.obs_dim, "embedding_dim": info.obs_dim}
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             writer.metrics.update({"probe_spearman": probe, "probe_spearman_raw": probe} | critic_probe(lambda x: x, "") | raw)
         return writer.artifact
-    record = {"type": "icvf", "obs_dim": info.obs_dim, "embedding_dim": config.icvf.embedding_dim, "icvf": cfg.to_dict(config.icvf)}
     with open_run(store, "embedding", name, resume=resume, record=run_record(record, seed, info.id, parents), config_class=cfg.EmbedConfig) as run:
-        result = pretrain_icvf(episodes, info.obs_dim, config.icvf, seed, device,
-                               None if on_progress is None else lambda step, loss: on_progress(step, {} if loss is None else {"loss": loss}),
-                               resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert)
+        result = entry.pretrain(episodes, info.obs_dim, entry.settings(config), seed, device,
+                                on_progress=None if on_progress is None else lambda step, loss: on_progress(step, {} if loss is None else {"loss": loss}),
+                                resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert)
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
             result.log.to_csv(writer.path("loss.csv"), index=False)

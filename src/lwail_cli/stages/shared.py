@@ -24,7 +24,7 @@ from ..loaders import load_demos
 
 if TYPE_CHECKING:
     from ..artifacts import Artifact, Store
-    from ..icvf import Encoder
+    from ..nets import Encoder
 
 
 Progress = Callable[[int, dict], None]  # (work done so far, latest figures to show): how every stage reports

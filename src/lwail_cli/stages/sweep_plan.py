@@ -1,9 +1,9 @@
 """A sweep's plan (TOML): the grid of tasks × seeds × embedding arms and each stage's overrides, read and checked
 whole before anything runs (`lwail sweep`, and `lwail report` rebuilding it from a report's record).
 
-An entry of ``embeddings`` is a kind (icvf, identity) or the name of a variant, a ``[variants.NAME]`` table giving
-its kind and its own overrides of the stages after collect (an ablation such as φ with LayerNorm is one more arm
-of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
+An entry of ``embeddings`` is a kind (``embeddings.EMBEDDINGS``) or the name of a variant, a ``[variants.NAME]`` table
+giving its kind and its own overrides of the stages after collect (an ablation such as φ with LayerNorm is one more
+arm of the grid). ``[[also]]`` tables add grids of their own (e.g. a second seed of some tasks and arms only) to the same
 plan, run after the first grid and reported with it. Every artifact of a run is named after the sweep, task, seed
 and arm; ``[labels]`` gives an arm the public name the report's tables and figures show (the arm's own by default).
 An ``[axis]`` table varies one setting as the grid varies seeds: ``setting = "env.start_noise"``, ``values = [0.0,
@@ -19,13 +19,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import config as cfg
+from ..embeddings import EMBEDDINGS
 from ..errors import LwailError
 from ..names import check_name, closest
 from .chain import CHAIN
 from .demos import bundled_demos_path
 
 PLAN_STAGES = (*CHAIN, "eval")
-EMBEDDINGS = ("icvf", "identity")
 GRID_KEYS = {"tasks", "seeds", "embeddings"}
 PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels", "axis"}
 AXIS_KEYS = {"setting", "values", "name"}
@@ -49,7 +49,7 @@ class Grid:
 
     tasks: tuple[str, ...]
     seeds: tuple[int, ...]
-    kinds: tuple[str, ...]  # embedding arms: icvf, identity or a variant's name
+    kinds: tuple[str, ...]  # embedding arms: an embedding kind or a variant's name
 
     @property
     def runs(self) -> list[SweepRun]:
@@ -64,7 +64,7 @@ class SweepPlan:
     name: str
     grids: tuple[Grid, ...]  # the plan's own grid, then its [[also]] grids, in the order they run
     overrides: dict  # stage -> tuple of section.field=value assignments
-    variants: dict = field(default_factory=dict)  # name -> {"kind": icvf|identity, stage: assignments}
+    variants: dict = field(default_factory=dict)  # name -> {"kind": an embedding kind, stage: assignments}
     threads: int = 1  # CPUs (Ray) and torch threads per run: 1 when runs share the cores, more for a lone run
     labels: dict = field(default_factory=dict)  # arm -> its public name in the report (e.g. "no embedding")
 
