@@ -62,7 +62,7 @@ def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
     import sys
 
     from lwail_cli.cli.result_commands import next_steps
-    from lwail_cli.stages.quickstart import quickstart_plan
+    from lwail_cli.stages.quickstart import quickstart_configs
 
     assert cli("expert", "train", "InvertedPendulum-v5", "--steps", "60", "--eval-every", "60", "--set", "td3.learning_starts=16", *TINY_TD3).exit_code == 0
     policy = store.resolve("invertedpendulum-v5-expert", "policy")
@@ -76,7 +76,7 @@ def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
     assert program == "python" and loaded.stdout.strip() == f"Policy({policy.ref}, env=InvertedPendulum-v5)"
     program, *arguments = shlex.split(other_task)
     assert program == "lwail" and "quickstart" in arguments
-    quickstart_plan(arguments[arguments.index("--env") + 1], None)  # a task with bundled demos: no error
+    quickstart_configs(arguments[arguments.index("--env") + 1], [f"imitate:train.steps={arguments[arguments.index('--steps') + 1]}"])  # no error
 
 
 def test_curve_draws_each_run_beside_its_own_curve_never_over_another(cli, store, tmp_path, monkeypatch):

@@ -22,6 +22,7 @@ from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import reward_map as reward_map_stage
 from ..stages import sweep as sweep_stage
+from ..stages.declaration import PLAN_STAGES
 from ..stages.sweep_plan import grid_lines, plan_from_dict, read_plan
 from ..stages.shared import resolve_device
 from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
@@ -98,17 +99,22 @@ def reward_map(
 @command(app, "quickstart")
 def quickstart(
     env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", metavar="ENV_ID", help="A task with bundled demos."),
-    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="--set imitate:train.steps=N: imitation env steps (default: the task's preset, else the paper's 1M)."),
+    overrides: list[str] = typer.Option([], "--set", metavar="STAGE:KEY=VALUE", help=(
+        f"Override a stage's hyper-parameter over the task's preset, e.g. imitate:td3.actor_lr=1e-4 (stages: {', '.join(PLAN_STAGES)}; "
+        "their settings: `lwail defaults STAGE`). Repeatable, each key once.")),
     seed: int = SEED,
     device: str = DEVICE,
 ) -> None:
-    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
-    plan = quickstart_stage.quickstart_plan(env_id, steps)
-    warn(online_stage.budget_warnings(plan.imitation))
+    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized. Each
+    stage runs its defaults under the task's preset (InvertedPendulum's: minutes on a CPU; `lwail defaults
+    quickstart` prints it), then --set."""
+    configs = quickstart_stage.quickstart_configs(env_id, [*overrides, *([f"imitate:train.steps={steps}"] if steps is not None else [])])
+    warn(online_stage.budget_warnings(configs["imitate"]))
     s = store()
     typer.echo(f"quickstart on {env_id} into store {s.root}")
     result = quickstart_stage.quickstart(
-        s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
+        s, env_id=env_id, configs=configs, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
     )
     _say_evaluation(result)
     typer.echo(f"\nevery artifact above is in {s.root} (`lwail ls` lists them). Next:")
