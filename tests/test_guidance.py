@@ -164,6 +164,17 @@ def test_show_explains_the_metrics_it_prints_and_docs_list_them_all(cli, store):
     assert all(f"`{metric}`" in documented for metric in glossary.METRICS)
 
 
+def test_the_glossary_explains_every_figure_a_manifest_or_a_learning_curve_records():
+    from lwail_cli import glossary, learning_curve
+    from lwail_cli.methods import METHODS
+
+    recorded = [*learning_curve.TABLE, "probe_spearman_raw", "final_loss"]  # the curve's columns, φ's and f's metrics
+    unexplained = [name for name in recorded if name not in glossary.SELF_EXPLAINED and glossary.meaning(name) is None]
+    assert unexplained == []
+    assert "cross-entropy" in glossary.meaning("discriminator_loss") and "target network" in glossary.meaning("target_normalized_score")
+    assert all(method.reward in glossary.meaning("reward_expert_mean") for method in METHODS.values())
+
+
 def test_the_python_example_of_the_docs_runs_on_a_quickstart_store(tmp_path, monkeypatch, capsys):
     """docs/usage.md#python, run as written from a folder whose ./artifacts holds what quickstart names (tiny budgets)."""
     from pathlib import Path

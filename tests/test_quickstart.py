@@ -8,6 +8,7 @@ import pytest
 
 from conftest import committed_versions
 from lwail_cli import config as cfg
+from lwail_cli.stages.curve import reward_of
 from lwail_cli.stages.declaration import PLAN_STAGES, preset, presets
 from lwail_cli.stages.quickstart import QUICK_ENV, quickstart_configs
 from lwail_cli.stages.sweep_plan import plan_from_dict
@@ -66,3 +67,4 @@ def test_quickstart_runs_the_chain_of_its_method_with_the_settings_given(cli, st
     policy = store.resolve("invertedpendulum-v5-pwil", "policy")
     assert (policy.config["method"], policy.config["train"]["steps"], policy.config["update_every"]) == ("pwil", 300, 150)
     assert policy.config["train"]["checkpoint_every"] == 25000  # the preset's, under the --set
+    assert reward_of(store, policy.name) == "α·exp(−β·T·c/√d)"  # what `lwail curve` names its reward

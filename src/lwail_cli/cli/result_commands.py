@@ -81,7 +81,7 @@ def curve(
         histories[ref] = history
     path = out or curve_figure_path(store(), refs=refs)
     if len(histories) == 1:
-        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
+        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0], curve_stage.reward_of(store(), refs[0]))}")
     else:
         typer.echo(f"wrote {curve_stage.plot_curves(histories, path)}")
 

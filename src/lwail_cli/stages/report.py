@@ -21,6 +21,7 @@ from ..errors import LwailError
 from ..evaluation import paper_score
 from ..learning_curve import FIGURES, REWARDS, curve_figures, second_half
 from ..loaders import policy_curve, read_curve_file
+from ..methods import METHODS
 from ..plots import plot_arms, plot_critic_by_arm, plot_profile
 from .shared import bundled_experts, lineage_demos
 
@@ -261,6 +262,7 @@ def draw(plan: SweepPlan, curves: list[RunCurve], runs: pd.DataFrame, path_for: 
     Each arm has one colour and one public name in all of them."""
     labels = {entry.run.arm: plan.run_label(entry.run) for entry in curves}
     style = {arm: (label, f"C{plan.arms.index(arm) % 10}") for arm, label in labels.items()}
+    rewards = {entry.run.arm: METHODS[entry.run.imitation].reward for entry in curves}
     logged = ["step", "normalized_score", "episodes_terminated", *REWARDS]
     rows = pd.concat([entry.curve[[column for column in logged if column in entry.curve]]
                      .assign(task=entry.run.task, arm=entry.run.arm, seed=entry.run.seed) for entry in curves])
@@ -270,7 +272,7 @@ def draw(plan: SweepPlan, curves: list[RunCurve], runs: pd.DataFrame, path_for: 
         plot_arms(group, style, written[-1], f"{task}: normalized score")
         if any(column in group for column in REWARDS):
             written.append(path_for(f"{task.lower()}_critic.png"))
-            plot_critic_by_arm(group, style, written[-1], f"{task}: what the critic f says")
+            plot_critic_by_arm(group, style, rewards, written[-1], f"{task}: what each method's reward says")
     score = runs[SCORE + EXPERT_PCT]
     if score.notna().any():
         thresholds = np.linspace(min(0.0, float(score.min())), max(110.0, float(score.max())), 241)
