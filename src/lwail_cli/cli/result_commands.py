@@ -144,7 +144,7 @@ def sweep(
     """Run a grid of tasks × seeds × embeddings (× an [axis]) on Ray (one CPU each), skipping finished stages; then report."""
     plan = read_plan(plan_file)
     if dry_run:
-        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs")
+        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs on {len(plan.data_sets)} data sets I and {len(plan.phis)} φs")
         typer.echo("\n".join(grid_lines(plan)))
         return
     s = store()

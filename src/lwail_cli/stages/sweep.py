@@ -153,7 +153,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
-        phi: dict = {}  # (task, seed, embedding arm) -> its φ, made when the first run of the arm is handed to Ray
+        phi: dict = {}  # plan.phis: (task, seed, embedding arm) -> its φ, made when the first run of the arm is handed to Ray
         # Ray starts ready tasks in no set order: hand it only as many runs as its CPUs hold, in the plan's order
         at_once = max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads)
         waiting, pending = list(plan.runs), {}

@@ -72,6 +72,11 @@ class SweepPlan:
         """The (task, seed) of each data set I, shared by the runs of every arm of that task and seed."""
         return list(dict.fromkeys((run.task, run.seed) for run in self.runs))
 
+    @property
+    def phis(self) -> list[tuple[str, int, str]]:
+        """The (task, seed, embedding arm) of each φ, shared by the runs of every method of that arm."""
+        return list(dict.fromkeys((run.task, run.seed, run.kind) for run in self.runs))
+
     def label(self, arm: str) -> str:
         return self.labels.get(arm, arm)
 
