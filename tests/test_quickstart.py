@@ -46,6 +46,7 @@ def test_set_goes_over_the_preset_one_stage_at_a_time():
 @pytest.mark.parametrize("arguments, message", [
     (["--set", "update_every=3000"], "--set update_every=3000: name the stage, STAGE:update_every=3000 (stages with update_every: imitate)"),
     (["--set", "steps=5"], "(stages with steps: warmup-disc)"),
+    (["--set", "td3.nope=5"], "(no stage has td3.nope: `lwail defaults STAGE` lists each one's)"),
     (["--set", "imitat:update_every=3000"], "unknown stage 'imitat'; the stages are collect, pretrain-icvf, warmup-disc, imitate, eval"),
     (["--set", "imitate:td3.nope=1"], "--set td3.nope: unknown setting 'nope'"),
     (["--set", "imitate:td3.gamma=2"], "td3.gamma must be below 1.0, got 2.0"),

@@ -137,11 +137,12 @@ def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str
 
 @command(app, "sweep")
 def sweep(
-    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, methods, [set] overrides per stage and [variants.NAME] arms; see plans/."),
     address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path); without it the sweep starts its own, whatever RAY_ADDRESS says."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid (each run, its arm's settings) and stop: nothing runs."),
 ) -> None:
-    """Run a grid of tasks × seeds × embeddings (× an [axis]) on Ray (one CPU each), skipping finished stages; then report."""
+    """Run a grid of tasks × seeds × embeddings × methods (× an [axis]) on Ray (one CPU each), skipping finished stages;
+    then report."""
     plan = read_plan(plan_file)
     if dry_run:
         typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs on {len(plan.data_sets)} data sets I and {len(plan.phis)} φs")

@@ -60,8 +60,9 @@ def read_stage_assignments(assignments: list[str], stages: tuple[str, ...] = PLA
         stage, colon, setting = assignment.partition(":")
         if not colon or "=" in stage:
             key = assignment.partition("=")[0].strip()
-            holders = [name for name in stages if holds(name, key)] or stages
-            raise LwailError(f"--set {assignment}: name the stage, STAGE:{assignment} (stages with {key}: {', '.join(holders)})")
+            holders = [name for name in stages if holds(name, key)]
+            where = f"stages with {key}: {', '.join(holders)}" if holders else f"no stage has {key}: `lwail defaults STAGE` lists each one's"
+            raise LwailError(f"--set {assignment}: name the stage, STAGE:{assignment} ({where})")
         if stage.strip() not in stages:
             raise LwailError(f"--set {assignment}: unknown stage {stage.strip()!r}; the stages are {', '.join(stages)}")
         table.setdefault(stage.strip(), []).append(setting)
