@@ -62,7 +62,7 @@ def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
     import sys
 
     from lwail_cli.cli.result_commands import next_steps
-    from lwail_cli.stages.quickstart import quickstart_plan
+    from lwail_cli.stages.quickstart import quickstart_configs
 
     assert cli("expert", "train", "InvertedPendulum-v5", "--steps", "60", "--eval-every", "60", "--set", "td3.learning_starts=16", *TINY_TD3).exit_code == 0
     policy = store.resolve("invertedpendulum-v5-expert", "policy")
@@ -76,7 +76,7 @@ def test_quickstart_ends_with_three_next_commands_that_run(cli, store):
     assert program == "python" and loaded.stdout.strip() == f"Policy({policy.ref}, env=InvertedPendulum-v5)"
     program, *arguments = shlex.split(other_task)
     assert program == "lwail" and "quickstart" in arguments
-    quickstart_plan(arguments[arguments.index("--env") + 1], None)  # a task with bundled demos: no error
+    quickstart_configs(arguments[arguments.index("--env") + 1], [f"imitate:train.steps={arguments[arguments.index('--steps') + 1]}"])  # no error
 
 
 def test_curve_draws_each_run_beside_its_own_curve_never_over_another(cli, store, tmp_path, monkeypatch):
@@ -162,6 +162,17 @@ def test_show_explains_the_metrics_it_prints_and_docs_list_them_all(cli, store):
     usage = (Path(__file__).parents[1] / "docs" / "usage.md").read_text()
     documented = usage[usage.index("## What the metrics mean"):]
     assert all(f"`{metric}`" in documented for metric in glossary.METRICS)
+
+
+def test_the_glossary_explains_every_figure_a_manifest_or_a_learning_curve_records():
+    from lwail_cli import glossary, learning_curve
+    from lwail_cli.methods import METHODS
+
+    recorded = [*learning_curve.TABLE, "probe_spearman_raw", "final_loss"]  # the curve's columns, φ's and f's metrics
+    unexplained = [name for name in recorded if name not in glossary.SELF_EXPLAINED and glossary.meaning(name) is None]
+    assert unexplained == []
+    assert "cross-entropy" in glossary.meaning("discriminator_loss") and "target network" in glossary.meaning("target_normalized_score")
+    assert all(method.reward in glossary.meaning("reward_expert_mean") for method in METHODS.values())
 
 
 def test_the_python_example_of_the_docs_runs_on_a_quickstart_store(tmp_path, monkeypatch, capsys):

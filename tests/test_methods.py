@@ -138,7 +138,11 @@ def _curve(policy):
 
 def test_a_plan_varies_methods_as_it_varies_embeddings_and_only_lwail_warms_up_a_discriminator():
     plan = read_plan(Path(__file__).parents[1] / "plans" / "methods-mujoco.toml")
-    methods = {arm: (plan.embedding_kind(arm), plan.config("imitate", arm).method) for arm in plan.kinds}
+    methods = {run.arm: (plan.embedding_kind(run.kind), plan.run_config("imitate", run).method) for run in plan.runs}
     assert methods == {f"{kind}-{method}": (kind, method) for kind in ("icvf", "identity") for method in ("lwail", "gaifo", "pwil")}
+    assert (len(plan.runs), len(plan.phis)) == (18, 6)
+    names = {run.method: plan.names(run) for run in plan.runs if (run.task, run.kind) == ("Hopper-v5", "icvf")}
+    assert {n["embedding"] for n in names.values()} == {"methods-mujoco-hopper-v5-s0-icvf"}  # one φ for the three methods
+    assert [n["policy"] for n in names.values()] == [f"methods-mujoco-hopper-v5-s0-icvf-{m}" for m in ("lwail", "gaifo", "pwil")]
     assert chain_for("lwail") == CHAIN and chain_for("gaifo") == chain_for("pwil") == ("collect", "pretrain-icvf", "imitate")
     assert reads("imitate", "lwail") == ("demos", "embedding", "discriminator") and reads("imitate", "pwil") == ("demos", "embedding")

@@ -134,3 +134,53 @@ def test_the_papers_figure_is_an_arms_embedding_kinds_and_demos_without_returns_
     assert lines[4].startswith("| Walker2d-v5 | icvf-authors | 2 | 50.0 ± 0.0 | 50.0 [50.0, 50.0] |") and lines[4].endswith("| 106.5 ± 1.1 |")
     assert lines[5].startswith("| Walker2d-v5 | no embedding | 2 |") and lines[5].endswith("| 62.4 ± 20.4 |")
     assert "| Walker2d-v5 | no embedding | 2 | — | — | — | — | — | — |" in lines  # no expert return: no % of it
+
+
+def test_a_plan_of_methods_reports_each_arm_and_method_and_names_each_ones_reward(tmp_path, monkeypatch):
+    """The report's rows are task × embedding arm × method, each labelled with its method where the plan has several;
+    the critic figure's legends say each method's reward (its registry entry's), never σ(−f) for all."""
+    import tomllib
+
+    from lwail_cli import plots
+    from lwail_cli.methods import METHODS
+    from lwail_cli.stages.report import RunCurve, draw, tables
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    text = PLAN.split("[labels]")[0].replace('embeddings = ["icvf", "identity"]', 'embeddings = ["icvf"]\nmethods = ["lwail", "pwil"]')
+    plan = plan_from_dict(tomllib.loads(text), "test plan")
+    curve = pd.DataFrame({"step": range(100, 1001, 100), "wall_time": 60.0, "return_mean": 1.0, "normalized_score": 50.0,
+                          "reward_expert_mean": 0.9, "pseudo_reward_mean": 0.5})
+    curves = [RunCurve(run, curve.assign(normalized_score=50.0 + 10 * (run.method == "pwil")), 2.0, "test") for run in plan.runs]
+    runs, summary, across = tables(plan, curves)
+    assert list(zip(summary["arm"], summary["method"], summary["label"])) == [("icvf-lwail", "lwail", "icvf, LWAIL"), ("icvf-pwil", "pwil", "icvf, PWIL")]
+    assert list(summary["last_10pct_mean_mean"]) == [50.0, 60.0] and list(across["arm"]) == ["icvf-lwail", "icvf-pwil"]
+
+    legends = []
+
+    def keep(fig, path):
+        legends.extend(text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts())
+        plots._pyplot().close(fig)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    draw(plan, curves, runs, lambda name: tmp_path / name)
+    for method in ("lwail", "pwil"):
+        assert f"{METHODS[method].reward} on expert pairs" in legends
+    assert "σ(−f) on expert pairs" in legends and legends.count("σ(−f) on the latest policy pairs") == 1
+
+
+def test_a_runs_figure_names_its_methods_reward(tmp_path, monkeypatch):
+    from lwail_cli import plots
+    from lwail_cli.methods import METHODS
+
+    texts = []
+
+    def keep(fig, path):
+        for ax in fig.axes:
+            texts.extend([ax.get_xlabel(), *(text.get_text() for text in (ax.get_legend().get_texts() if ax.get_legend() else []))])
+        plots._pyplot().close(fig)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    curve = pd.DataFrame({"step": [100, 200], "return_mean": [1.0, 2.0], "reward_expert_mean": [3.0, 4.0], "pseudo_reward_mean": [1.0, 2.0]})
+    plots.plot_run(curve, tmp_path / "curve.png", tmp_path / "scatter.png", "GAIfO on a task", METHODS["gaifo"].reward)
+    assert {"−log(1 − D) on expert pairs", "−log(1 − D) on the latest policy pairs", "mean −log(1 − D) of recent transitions"} <= set(texts)
+    assert not any("σ(−f)" in text for text in texts)

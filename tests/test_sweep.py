@@ -50,6 +50,10 @@ pretrain-icvf = ["icvf.layer_norm=after"]
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 0', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = "2"', "'threads' must be an integer from 1 to 256"),
         ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nthreads = 256', "the plan gives each run 256 threads; this machine has"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nmethods = ["bc"]', "unknown method 'bc' in 'methods'; the registered methods: lwail, gaifo, pwil"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\nmethods = ["gaifo", "gaifo"]', "'methods' must be a non-empty list of distinct methods"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[set]\nimitate = ["method=pwil"]', "[set]: the method comes from 'methods', not from imitate"),
+        ('name = "x"\ntasks = ["InvertedPendulum-v5"]\nseeds = [0]\n[axis]\nsetting = "method"\nvalues = ["pwil"]', "[axis]: 'method' comes from the grid"),
     ],
 )
 def test_a_bad_plan_is_one_clear_line_before_anything_runs(cli, store, tmp_path, text, message):
@@ -133,6 +137,65 @@ embeddings = ["identity"]
     assert plan.names(SweepRun(hopper, 1, "jax-phi"))["policy"] == "x-hopper-v5-s1-jax-phi"
     assert plan_from_dict(plan.to_dict(), "a report's record") == plan
     assert "also" not in plan_from_dict(tomllib.loads(VARIANT_PLAN), "test plan").to_dict()  # a plain plan records what it did
+
+
+# each shipped plan's runs, as made before plans named methods: every artifact name and every stage's config
+FINGERPRINTS = {
+    "halfcheetah-diagnose.toml": "15a32849f2b9d8f5", "halfcheetah-screen-protect.toml": "2696aee04c43c583",
+    "halfcheetah-screen.toml": "2f2860d8b91fbec5", "hopper-1m-identity.toml": "0aac0addefc3919b", "hopper-1m-target.toml": "ab675a75881e60a4",
+    "hopper-300k.toml": "40efe4ff45692879", "mujoco-table.toml": "5c33db1625a57b4c", "paper-table.toml": "da7e7587b0566c70",
+    "paper.toml": "89de1e1b6db54598", "pointmaze-noise.toml": "31af5d81eb78a144", "smoke.toml": "3246ce66f8470433",
+}
+
+
+@pytest.mark.parametrize("plan", sorted(FINGERPRINTS))
+def test_a_plan_without_methods_names_and_configures_its_runs_as_before(plan):
+    """What the sweep's ledger fingerprints (each artifact's name, its stage's config, the seed) and what a report
+    records are those of the plan before `methods` existed: a restarted sweep finds its finished stages."""
+    import hashlib
+    import json
+
+    from lwail_cli import config as cfg
+    from lwail_cli.stages.declaration import PLAN_STAGES
+    from lwail_cli.stages.sweep_plan import read_plan
+
+    read = read_plan(PLANS / plan)
+    rows = [[read.names(run), {stage: cfg.to_dict(read.run_config(stage, run)) for stage in PLAN_STAGES}, run.seed, run.task]
+            for run in read.runs]
+    assert hashlib.sha256(json.dumps(rows, sort_keys=True).encode()).hexdigest()[:16] == FINGERPRINTS[plan]
+    assert read.methods == ["lwail"] and "methods" not in json.dumps(read.to_dict())
+
+
+def test_the_methods_of_an_arm_share_its_data_and_phi_and_only_lwail_warms_up(store):
+    import tomllib
+
+    import torch
+
+    from lwail_cli.stages.sweep import bundled_demos, collect_task, embed_task, run_task
+    from lwail_cli.stages.sweep_plan import SweepRun, grid_lines, plan_from_dict
+
+    raw = tomllib.loads((PLANS / "smoke.toml").read_text())
+    raw.update(name="m", seeds=[0], embeddings=["icvf"], methods=["lwail", "pwil"])
+    plan = plan_from_dict(raw, "test plan")
+    task = "InvertedPendulum-v5"
+    assert plan.runs == [SweepRun(task, 0, "icvf", "lwail"), SweepRun(task, 0, "icvf", "pwil")]
+    assert [plan.names(run)["policy"] for run in plan.runs] == ["m-invertedpendulum-v5-s0-icvf-lwail", "m-invertedpendulum-v5-s0-icvf-pwil"]
+    assert grid_lines(plan)[-2:] == [f"{task} seed 0 icvf-lwail (icvf, lwail)", f"{task} seed 0 icvf-pwil (icvf, pwil)"]
+    assert plan_from_dict(plan.to_dict(), "a report's record") == plan
+    threads = torch.get_num_threads()
+    try:  # the Ray tasks' bodies, in this process
+        demos = bundled_demos(store, plan, task).ref
+        data = collect_task(str(store.root), plan.to_dict(), task, 0)
+        phi = embed_task(str(store.root), plan.to_dict(), task, 0, "icvf", demos, data)
+        assert embed_task(str(store.root), plan.to_dict(), task, 0, "icvf", demos, data) == phi  # the ledger's, not trained again
+        results = [run_task(str(store.root), plan.to_dict(), task, 0, "icvf", demos, data, run.method, phi) for run in plan.runs]
+    finally:
+        torch.set_num_threads(threads)
+    kinds = [kind for kind, *_ in committed_versions(store)]
+    assert [kinds.count(kind) for kind in ("dataset", "embedding", "discriminator", "policy")] == [1, 1, 1, 2]
+    policies = [store.resolve(result["policy"], "policy") for result in results]
+    assert [policy.config["method"] for policy in policies] == ["lwail", "pwil"]
+    assert {store.resolve_parent(policy, "embedding").ref for policy in policies} == {phi}
 
 
 def test_a_variant_is_one_more_arm_with_its_own_overrides_and_shares_the_seeds_data(store, monkeypatch):

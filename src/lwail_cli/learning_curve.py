@@ -14,12 +14,13 @@ FILE = "learning_curve.csv"
 # so that its policy artifacts and its runs in flight (killed, or resumed by this code) still show their curves
 FILES = (FILE, "training.csv")
 
-# what the critic f says at each evaluation of an LWAIL run (imitation.AdversarialReward.metrics)
+# what the method's reward gives three sets of pairs at each evaluation of an imitation run (the learner's metrics;
+# LWAIL's σ(−f) also at warm-up): the legend of each is the method's reward (methods.base.Method.reward) then these words
 REWARD_EXPERT, PSEUDO_REWARD, REWARD_RANDOM = "reward_expert_mean", "pseudo_reward_mean", "reward_random_mean"
-REWARDS = {  # column -> legend
-    REWARD_EXPERT: "σ(−f) on expert pairs",
-    PSEUDO_REWARD: "σ(−f) on the latest policy pairs",
-    REWARD_RANDOM: "σ(−f) on random-policy pairs",
+REWARDS = {  # column -> the pairs it is the mean over
+    REWARD_EXPERT: "on expert pairs",
+    PSEUDO_REWARD: "on the latest policy pairs",
+    REWARD_RANDOM: "on random-policy pairs",
 }
 WASSERSTEIN, PSEUDO_RETURN_SPEARMAN = "wasserstein_estimate", "pseudo_return_spearman"
 DISCRIMINATOR_LOSS = "discriminator_loss"  # GAIfO's D instead of f: its cross-entropy at its last update (methods/gaifo.py)

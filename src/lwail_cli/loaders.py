@@ -98,7 +98,7 @@ def parent(store: Store, artifact: Artifact, kind: str) -> Artifact:
 def read_curve(store: Store, *, ref: str) -> tuple[pd.DataFrame, str]:
     """The curve of the run named ``ref`` while it runs (or after a kill), else of the policy artifact ``ref``;
     with a line saying which was read."""
-    live = _live_curve(store, ref)
+    live = live_curve(store, ref)
     if live is not None:
         return read_curve_file(live), f"run {ref} in progress or killed (last checkpoint kept): {live}"
     policy = store.resolve(ref, "policy")
@@ -112,12 +112,12 @@ def curve_figure_path(store: Store, *, refs: list[str]) -> Path:
     replaces another's; the other runs drawn beside it are named in the file's name."""
     others = "".join("+" + re.sub(r"[^A-Za-z0-9._-]", "_", ref) for ref in refs[1:])
     filename = f"curve{others}.png"
-    if _live_curve(store, refs[0]) is not None:
+    if live_curve(store, refs[0]) is not None:
         return store.runs.run_log("policy", refs[0], filename)
     return store.resolve(refs[0], "policy").beside(filename)
 
 
-def _live_curve(store: Store, ref: str) -> Path | None:
+def live_curve(store: Store, ref: str) -> Path | None:
     """The curve file of the run named ``ref`` while it runs or after a kill (None if there is no such run)."""
     for filename in CURVE_FILES:
         try:

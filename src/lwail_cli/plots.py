@@ -32,8 +32,12 @@ def score_column(history: pd.DataFrame) -> str:
     return "return_mean"
 
 
-def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None, title: str) -> None:
-    """The score against env steps above the critic's rewards; and, when asked, pseudo-reward vs true return."""
+GENERIC_REWARD = "reward"  # the legend's word for a run whose method is not known (a run still going or killed)
+
+
+def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None, title: str, reward: str = GENERIC_REWARD) -> None:
+    """The score against env steps above the method's rewards (``reward``: its formula, methods.base.Method.reward);
+    and, when asked, that reward vs the true return."""
     plt = _pyplot()
     score = score_column(history)
     rewards = [column for column in REWARDS if column in history]
@@ -50,7 +54,7 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     if rewards:
         bottom = axes[1, 0]
         for column in rewards:
-            bottom.plot(history["step"], history[column], label=REWARDS[column])
+            bottom.plot(history["step"], history[column], label=f"{reward} {REWARDS[column]}")
         bounded = all(history[column].max() <= 1 for column in rewards)  # σ(−f) is; GAIfO's and PWIL's rewards are not
         bottom.set(ylabel="reward", ylim=(0, 1) if bounded else (0, None))
         bottom.legend(fontsize=8)
@@ -62,7 +66,7 @@ def plot_run(history: pd.DataFrame, curve_path: Path, scatter_path: Path | None,
     fig, ax = plt.subplots(figsize=(6, 4))
     points = ax.scatter(history[PSEUDO_REWARD], history["return_mean"], c=history["step"], cmap="viridis")
     fig.colorbar(points, label="environment steps")
-    ax.set(xlabel="mean pseudo-reward σ(−f) of recent transitions", ylabel="true return", title="pseudo-reward vs true return")
+    ax.set(xlabel=f"mean {reward} of recent transitions", ylabel="true return", title=f"{reward} vs true return")
     ax.grid(alpha=0.3)
     _save(fig, scatter_path)
 
@@ -129,26 +133,29 @@ def plot_arms(curves: pd.DataFrame, style: dict[str, tuple[str, str]], path: Pat
     _save(fig, path)
 
 
-def plot_critic_by_arm(curves: pd.DataFrame, style: dict[str, tuple[str, str]], path: Path, title: str) -> None:
-    """One panel per arm, in its colour: what the critic says (σ(−f) on expert pairs solid, on the latest policy's
-    dashed, on random pairs dotted; mean over seeds) against env steps. A policy's reward that stays well below the
-    expert's is a gap f still sees; one that reaches it while the return does not is a critic that no longer tells
-    them apart."""
+def plot_critic_by_arm(curves: pd.DataFrame, style: dict[str, tuple[str, str]], rewards: dict[str, str], path: Path, title: str) -> None:
+    """One panel per arm, in its colour: what its method's reward (``rewards``: arm -> its formula) gives expert
+    pairs (solid), the latest policy's (dashed) and random pairs (dotted), mean over seeds, against env steps. A
+    policy's reward that stays well below the expert's is a gap the method still sees; one that reaches it while the
+    return does not is a reward that no longer tells them apart."""
     plt = _pyplot()
     arms = [arm for arm in style if (curves["arm"] == arm).any()]
-    fig, axes = plt.subplots(1, len(arms), figsize=(5 * len(arms), 3.8), sharey=True, squeeze=False)
+    fig, axes = plt.subplots(1, len(arms), figsize=(5 * len(arms), 3.8), squeeze=False)
     for ax, arm in zip(axes[0], arms):
         label, colour = style[arm]
         group = curves[curves["arm"] == arm]
-        for (column, legend), line in zip(REWARDS.items(), ("-", "--", ":")):
+        drawn = []
+        for (column, pairs), line in zip(REWARDS.items(), ("-", "--", ":")):
             if column in group and group[column].notna().any():
                 means = group.groupby("step")[column].mean()
-                ax.plot(means.index, means, color=colour, linestyle=line, label=legend)
-        ax.set(title=f"{label}: {seeds_phrase(group['seed'].nunique())}", xlabel="environment steps", ylim=(0, 1))
+                ax.plot(means.index, means, color=colour, linestyle=line, label=f"{rewards[arm]} {pairs}")
+                drawn.append(means.max())
+        bounded = all(top <= 1 for top in drawn)  # σ(−f) is; GAIfO's and PWIL's rewards are not
+        ax.set(title=f"{label}: {seeds_phrase(group['seed'].nunique())}", xlabel="environment steps", ylim=(0, 1) if bounded else (0, None))
         _steps_axis(ax)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    axes[0, 0].set(ylabel="reward σ(−f)")
+    axes[0, 0].set(ylabel="reward")
     fig.suptitle(title)
     _save(fig, path)
 

@@ -22,6 +22,7 @@ from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import reward_map as reward_map_stage
 from ..stages import sweep as sweep_stage
+from ..stages.declaration import PLAN_STAGES
 from ..stages.sweep_plan import grid_lines, plan_from_dict, read_plan
 from ..stages.shared import resolve_device
 from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
@@ -80,7 +81,7 @@ def curve(
         histories[ref] = history
     path = out or curve_figure_path(store(), refs=refs)
     if len(histories) == 1:
-        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0])}")
+        typer.echo(f"wrote {curve_stage.plot_curve(history, path, refs[0], curve_stage.reward_of(store(), refs[0]))}")
     else:
         typer.echo(f"wrote {curve_stage.plot_curves(histories, path)}")
 
@@ -98,17 +99,22 @@ def reward_map(
 @command(app, "quickstart")
 def quickstart(
     env_id: str = typer.Option(quickstart_stage.QUICK_ENV, "--env", metavar="ENV_ID", help="A task with bundled demos."),
-    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="Imitation env steps (default: short for InvertedPendulum, the paper's 1M otherwise)."),
+    steps: Optional[int] = typer.Option(None, "--steps", metavar="N", help="--set imitate:train.steps=N: imitation env steps (default: the task's preset, else the paper's 1M)."),
+    overrides: list[str] = typer.Option([], "--set", metavar="STAGE:KEY=VALUE", help=(
+        f"Override a stage's hyper-parameter over the task's preset, e.g. imitate:td3.actor_lr=1e-4 (stages: {', '.join(PLAN_STAGES)}; "
+        "their settings: `lwail defaults STAGE`). Repeatable, each key once.")),
     seed: int = SEED,
     device: str = DEVICE,
 ) -> None:
-    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized."""
-    plan = quickstart_stage.quickstart_plan(env_id, steps)
-    warn(online_stage.budget_warnings(plan.imitation))
+    """The whole chain on bundled demos: collect → pretrain-icvf → warmup-disc → imitate → eval --normalized. Each
+    stage runs its defaults under the task's preset (InvertedPendulum's: minutes on a CPU; `lwail defaults
+    quickstart` prints it), then --set."""
+    configs = quickstart_stage.quickstart_configs(env_id, [*overrides, *([f"imitate:train.steps={steps}"] if steps is not None else [])])
+    warn(online_stage.budget_warnings(configs["imitate"]))
     s = store()
     typer.echo(f"quickstart on {env_id} into store {s.root}")
     result = quickstart_stage.quickstart(
-        s, env_id=env_id, plan=plan, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
+        s, env_id=env_id, configs=configs, seed=seed, device=resolve_device(device), progress=progress_bar, on_written=say_written
     )
     _say_evaluation(result)
     typer.echo(f"\nevery artifact above is in {s.root} (`lwail ls` lists them). Next:")
@@ -131,14 +137,15 @@ def next_steps(policy_ref: str, env_id: str, store_root: Path) -> list[tuple[str
 
 @command(app, "sweep")
 def sweep(
-    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, [set] overrides per stage and [variants.NAME] arms; see plans/."),
+    plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, methods, [set] overrides per stage and [variants.NAME] arms; see plans/."),
     address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path); without it the sweep starts its own, whatever RAY_ADDRESS says."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid (each run, its arm's settings) and stop: nothing runs."),
 ) -> None:
-    """Run a grid of tasks × seeds × embeddings (× an [axis]) on Ray (one CPU each), skipping finished stages; then report."""
+    """Run a grid of tasks × seeds × embeddings × methods (× an [axis]) on Ray (one CPU each), skipping finished stages;
+    then report."""
     plan = read_plan(plan_file)
     if dry_run:
-        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs")
+        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs on {len(plan.data_sets)} data sets I and {len(plan.phis)} φs")
         typer.echo("\n".join(grid_lines(plan)))
         return
     s = store()

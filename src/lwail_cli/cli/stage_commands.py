@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from .. import config as cfg
-from ..embeddings import embedding, unread_settings
+from ..embeddings import unread_settings
 from ..errors import LwailError
 from ..stages import collect as collect_stage
 from ..stages import demos as demos_stage
@@ -18,6 +18,7 @@ from ..stages import expert as expert_stage
 from ..stages import imitate as imitate_stage
 from ..stages import online as online_stage
 from ..stages import warmup as warmup_stage
+from ..stages.chain import work
 from ..stages.shared import resolve_device
 from .app import DEVICE, NAME, SEED, VIDEO, app, command, demos_app, expert_app, progress_bar, refuse_unread_settings, resume_option, say_written, store
 
@@ -126,9 +127,7 @@ def pretrain_icvf(
     if unread:
         raise LwailError(f"--kind {config.kind} does not read {', '.join(unread)}; give its own settings as --set {config.kind}.FIELD=VALUE "
                          f"(see `lwail defaults pretrain-icvf`)")
-    settings = embedding(config.kind).settings(config)
-    total = settings.steps if settings is not None else 0
-    with progress_bar("pretrain-icvf", total) as report:
+    with progress_bar("pretrain-icvf", work("pretrain-icvf", config)) as report:
         artifact = embed_stage.embed(
             store(), data_ref=data, config=config, seed=seed, name=name, device=resolve_device(device), demos_ref=demos, on_progress=report,
             resume=resume,

@@ -12,6 +12,7 @@ from .. import config as cfg
 from .. import glossary
 from ..errors import LwailError
 from ..names import closest
+from ..stages.declaration import presets, table_lines
 from .app import app, command, fmt, store
 
 
@@ -62,10 +63,16 @@ def verify(ref: Optional[str] = typer.Argument(None, metavar="REF", help="name, 
 
 
 @command(app, "defaults")
-def defaults(stage: Optional[str] = typer.Argument(None, metavar="STAGE", help=f"One of {', '.join(cfg.STAGES)} (default: all).")) -> None:
-    """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts)."""
+def defaults(stage: Optional[str] = typer.Argument(None, metavar="STAGE", help=f"One of {', '.join(cfg.STAGES)}, or quickstart: its presets (default: all stages).")) -> None:
+    """Print a stage's hyper-parameters with their defaults and meaning (the names --set accepts), or the settings
+    quickstart gives each task over them."""
+    if stage == "quickstart":
+        typer.echo("# quickstart: per task, what it sets over the stages' defaults (as a sweep plan's [set]); its --set goes on top")
+        for task, table in presets().items():
+            typer.echo("\n".join([f"[{task}]", *table_lines(table)]))
+        return
     if stage is not None and stage not in cfg.STAGES:
-        raise LwailError(f"unknown stage {stage!r}; {closest(stage, list(cfg.STAGES), 'stages')}")
+        raise LwailError(f"unknown stage {stage!r}; {closest(stage, [*cfg.STAGES, 'quickstart'], 'stages')}")
     for name, config_type in cfg.STAGES.items():
         if stage in (None, name):
             typer.echo(f"# {name}\n{cfg.describe(config_type())}")

@@ -44,3 +44,4 @@ class Method:
     reads_discriminator: bool  # needs a warmed-up f (`lwail warmup-disc`, --disc); a method that does not refuses one
     caches_features: bool  # keeps every buffered pair's features (the replay memory check counts them)
     build: Callable[[Inputs], Learner]
+    reward: str  # the reward TD3 is given, as figures and their legends write it (e.g. σ(−f))

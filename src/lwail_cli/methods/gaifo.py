@@ -50,4 +50,5 @@ def build(inputs: Inputs) -> AdversarialReward:
                              update_every=config.update_every, update_steps=config.update_steps, random_features=inputs.random)
 
 
-METHOD = Method("gaifo", "GAIfO", "GAIfO reward −log(1 − D)", reads_discriminator=False, caches_features=True, build=build)
+METHOD = Method("gaifo", "GAIfO", "GAIfO reward −log(1 − D)", reads_discriminator=False, caches_features=True, build=build,
+                reward="−log(1 − D)")

@@ -15,4 +15,4 @@ def build(inputs: Inputs) -> AdversarialReward:
                              update_steps=config.update_steps, random_features=inputs.random)
 
 
-METHOD = Method("lwail", "LWAIL", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build)
+METHOD = Method("lwail", "LWAIL", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build, reward="σ(−f)")

@@ -114,4 +114,5 @@ def build(inputs: Inputs) -> PrimalWassersteinReward:
     return PrimalWassersteinReward(inputs.encoder, inputs.expert, inputs.config.pwil, random_features=inputs.random)
 
 
-METHOD = Method("pwil", "PWIL", "PWIL reward α·exp(−β·T·c/√d)", reads_discriminator=False, caches_features=False, build=build)
+METHOD = Method("pwil", "PWIL", "PWIL reward α·exp(−β·T·c/√d)", reads_discriminator=False, caches_features=False, build=build,
+                reward="α·exp(−β·T·c/√d)")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..embeddings import embedding
 from ..methods import METHODS
 from .collect import collect
 from .embed import embed
@@ -39,6 +40,16 @@ def reads(stage: str, method: str) -> tuple[str, ...]:
     """The artifact kinds ``stage`` reads in a run of ``method`` (``READS`` less what the chain does not make)."""
     made = {MAKES[before] for before in chain_for(method)} | {"demos"}
     return tuple(kind for kind in READS[stage] if kind in made)
+
+
+def work(stage: str, config) -> int:
+    """What the stage's progress bar counts: transitions collected, φ's gradient steps, f's warm-up steps, env steps."""
+    if stage == "pretrain-icvf":
+        settings = embedding(config.kind).settings(config)
+        return settings.steps if settings is not None else 0
+    if stage == "collect":
+        return config.transitions
+    return config.steps if stage == "warmup-disc" else config.train.steps
 
 
 def run_stage(

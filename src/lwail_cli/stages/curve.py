@@ -7,17 +7,30 @@ from typing import TYPE_CHECKING
 
 from ..config import POLICY_NETWORKS
 from ..learning_curve import curve_figures, saturated_critic
-from ..plots import plot_run, plot_side_by_side, score_column
+from ..loaders import live_curve
+from ..methods import METHODS
+from ..plots import GENERIC_REWARD, plot_run, plot_side_by_side, score_column
 
 if TYPE_CHECKING:
     from pathlib import Path
 
     import pandas as pd
 
+    from ..artifacts import Store
 
-def plot_curve(curve: pd.DataFrame, path: Path, title: str) -> Path:
-    plot_run(curve, path, None, title)
+
+def plot_curve(curve: pd.DataFrame, path: Path, title: str, reward: str = GENERIC_REWARD) -> Path:
+    plot_run(curve, path, None, title, reward)
     return path
+
+
+def reward_of(store: Store, ref: str) -> str:
+    """The reward the run ``ref`` was given, as its figure names it: its method's (methods.base.Method.reward), read
+    from its policy artifact; for a run still going or killed, the generic word."""
+    if live_curve(store, ref) is not None:
+        return GENERIC_REWARD
+    method = store.resolve(ref, "policy").config.get("method", "lwail")  # an artifact older than the methods: LWAIL's
+    return METHODS[method].reward if method in METHODS else GENERIC_REWARD
 
 
 def plot_curves(curves: dict[str, pd.DataFrame], path: Path) -> Path:

@@ -64,7 +64,7 @@ def imitate(
             for filename, weights in reward_model.weights().items():
                 save_weights(writer.path(filename), weights)
             plot_run(pd.DataFrame(trained.state.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"),
-                     f"{method.label} on {env_id}")
+                     f"{method.label} on {env_id}", method.reward)
             writer.metrics.update(final_metrics(trained.state, reference))
     return writer.artifact
 

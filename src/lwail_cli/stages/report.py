@@ -21,6 +21,7 @@ from ..errors import LwailError
 from ..evaluation import paper_score
 from ..learning_curve import FIGURES, REWARDS, curve_figures, second_half
 from ..loaders import policy_curve, read_curve_file
+from ..methods import METHODS
 from ..plots import plot_arms, plot_critic_by_arm, plot_profile
 from .shared import bundled_experts, lineage_demos
 
@@ -87,11 +88,11 @@ def report_from_curves(*, plan: SweepPlan, folder: Path, out: Path) -> tuple[str
 
 
 def curve_file_name(plan: SweepPlan, run: SweepRun) -> str:
-    return f"{plan.name}_{run.task.lower()}_{run.kind}_seed{run.seed}.csv"
+    return f"{plan.name}_{run.task.lower()}_{run.arm}_seed{run.seed}.csv"
 
 
 def run_steps(plan: SweepPlan, run: SweepRun) -> int:
-    return plan.config("imitate", run.kind).train.steps
+    return plan.run_config("imitate", run).train.steps
 
 
 def _demos_return(store: Store, policy: Artifact) -> float:
@@ -104,8 +105,8 @@ def _demos_return(store: Store, policy: Artifact) -> float:
 
 # ------------------------------------------------------------------------------ the tables
 def tables(plan: SweepPlan, curves: list[RunCurve]) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """One row per run, per task × arm, and per arm across tasks."""
-    order = {run: index for index, run in enumerate(sorted(plan.runs, key=lambda run: (plan.tasks.index(run.task), plan.kinds.index(run.kind), run.seed)))}
+    """One row per run, per task × arm, and per arm across tasks; an arm is one embedding arm and one method."""
+    order = {run: index for index, run in enumerate(sorted(plan.runs, key=lambda run: (plan.tasks.index(run.task), plan.arms.index(run.arm), run.seed)))}
     runs = pd.DataFrame([run_row(plan, entry) for entry in sorted(curves, key=lambda entry: order[entry.run])])
     return runs, summarize(runs), across_tasks(runs)
 
@@ -118,8 +119,8 @@ def run_row(plan: SweepPlan, entry: RunCurve) -> dict:
     later = second_half(curve, steps)
     wall_time = float(curve["wall_time"].iloc[-1]) if "wall_time" in curve else float("nan")
     return {
-        "task": run.task, "arm": run.kind, "label": plan.label(run.kind), "embedding": plan.embedding_kind(run.kind),
-        "method": plan.config("imitate", run.kind).method, "seed": run.seed, "source": entry.source, "env_steps": steps, "expert_return": entry.expert_return,
+        "task": run.task, "arm": run.arm, "label": plan.run_label(run), "embedding": plan.embedding_kind(run.kind),
+        "method": run.imitation, "seed": run.seed, "source": entry.source, "env_steps": steps, "expert_return": entry.expert_return,
         **curve_figures(curve, steps),
         **{figure + EXPERT_PCT: value for figure, value in curve_figures(curve, steps, "expert_pct").items()},
         "evaluations_after_half": len(later),
@@ -259,18 +260,19 @@ def _step(step: float) -> str:
 def draw(plan: SweepPlan, curves: list[RunCurve], runs: pd.DataFrame, path_for: Callable[[str], Path]) -> list[Path]:
     """Per task, every arm's score over env steps and what its critic says; across tasks, the performance profile.
     Each arm has one colour and one public name in all of them."""
-    arms = list(dict.fromkeys(entry.run.kind for entry in curves))
-    style = {arm: (plan.label(arm), f"C{plan.kinds.index(arm) % 10}") for arm in arms}
+    labels = {entry.run.arm: plan.run_label(entry.run) for entry in curves}
+    style = {arm: (label, f"C{plan.arms.index(arm) % 10}") for arm, label in labels.items()}
+    rewards = {entry.run.arm: METHODS[entry.run.imitation].reward for entry in curves}
     logged = ["step", "normalized_score", "episodes_terminated", *REWARDS]
     rows = pd.concat([entry.curve[[column for column in logged if column in entry.curve]]
-                     .assign(task=entry.run.task, arm=entry.run.kind, seed=entry.run.seed) for entry in curves])
+                     .assign(task=entry.run.task, arm=entry.run.arm, seed=entry.run.seed) for entry in curves])
     written = []
     for task, group in rows.groupby("task", sort=False):
         written.append(path_for(f"{task.lower()}_curves.png"))
         plot_arms(group, style, written[-1], f"{task}: normalized score")
         if any(column in group for column in REWARDS):
             written.append(path_for(f"{task.lower()}_critic.png"))
-            plot_critic_by_arm(group, style, written[-1], f"{task}: what the critic f says")
+            plot_critic_by_arm(group, style, rewards, written[-1], f"{task}: what each method's reward says")
     score = runs[SCORE + EXPERT_PCT]
     if score.notna().any():
         thresholds = np.linspace(min(0.0, float(score.min())), max(110.0, float(score.max())), 241)

@@ -1,8 +1,8 @@
-"""`lwail sweep`: tasks × seeds × embeddings, each run the usual chain, as Ray tasks of one CPU each.
+"""`lwail sweep`: tasks × seeds × embeddings × methods, each run the usual chain, as Ray tasks of one CPU each.
 
 A plan (``sweep_plan.py``) names the grid and each stage's ``--set`` overrides. Stages that several runs share are
-made once: a task's bundled demos, and the random data set I of a task and seed (read by every
-arm of that seed). Every artifact is named after the sweep, and each finished stage is recorded in the sweep's ledger
+made once: a task's bundled demos, the random data set I of a task and seed (read by every arm of that seed), and
+the φ of a task, seed and embedding arm (read by every method of that arm). Every artifact is named after the sweep, and each finished stage is recorded in the sweep's ledger
 (in the run area, ``.runs/sweep/``) under a fingerprint of its stage, name, config, seed and parents: a restarted
 sweep skips what is done (its artifact still there and intact, and for bundled demos, still today's bundle) and
 resumes a killed long stage (``pretrain-icvf``, ``imitate``) from its checkpoint.
@@ -68,30 +68,54 @@ def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
     return data.ref
 
 
-def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str) -> dict:
-    """One run's own chain: embed → warm-up → imitate (each resumed from its checkpoint if killed) → evaluate."""
-    import torch
-
+def embed_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str) -> str:
+    """The φ of a task, seed and embedding arm, shared by the runs of every method of that arm (its ref returned)."""
     store, plan = _worker(root, plan_dict)
-    run, device = SweepRun(task, seed, kind), torch.device("cpu")
+    waiting = [plan.names(run)["policy"] for run in plan.runs if (run.task, run.seed, run.kind) == (task, seed, kind)]
+    for run_name in waiting:
+        store.runs.set_sweep_status(plan.name, run_name, STATUS["pretrain-icvf"])
+    made = {"demos": store.resolve(demos_ref, "demos"), "dataset": store.resolve(data_ref, "dataset")}
+    embedding = _stage(store, plan, SweepRun(task, seed, kind), "pretrain-icvf", made)
+    for run_name in waiting:  # queued again, until a CPU is free for the run itself
+        store.runs.clear_sweep_status(plan.name, run_name)
+    return embedding.ref
+
+
+def run_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str, method: str | None = None,
+             embedding_ref: str | None = None) -> dict:
+    """One run's own chain: embed (unless ``embedding_ref`` names the φ its arm shares) → warm-up (for a method that
+    reads f) → imitate (each resumed from its checkpoint if killed) → evaluate."""
+    store, plan = _worker(root, plan_dict)
+    run = SweepRun(task, seed, kind, method)
     names = plan.names(run)
     status = functools.partial(store.runs.set_sweep_status, plan.name, names["policy"])  # what the driver shows, from the first second
     made = {"demos": store.resolve(demos_ref, "demos"), "dataset": store.resolve(data_ref, "dataset")}
-    method = plan.config("imitate", kind).method  # the arm's imitation method: a warm-up only for one that reads f
-    for stage in chain_for(method)[1:]:
-        status(STATUS[stage])
-        config, made_kind = plan.config(stage, kind), MAKES[stage]
-        name = names[made_kind]
-        made[made_kind] = _once(store, plan, made_kind, name, _record(config, seed, *(made[read] for read in reads(stage, method))),
-                                lambda: run_stage(store, stage, made=made, env_id=task, config=config, seed=seed, device=device, name=name,
-                                                  resume=store.runs.has_checkpoint(made_kind, name)))
+    if embedding_ref is not None:
+        made["embedding"] = store.resolve(embedding_ref, "embedding")
+    for stage in chain_for(run.imitation)[1:]:  # a warm-up only for a method that reads f
+        if MAKES[stage] not in made:
+            status(STATUS[stage])
+            made[MAKES[stage]] = _stage(store, plan, run, stage, made)
     status("evaluating")
-    eval_config = plan.config("eval", kind)  # a restart does not evaluate a finished run again
+    eval_config = plan.run_config("eval", run)  # a restart does not evaluate a finished run again
     policy = made["policy"]
     result = (logged_normalized_evaluation(store, policy_ref=policy.ref, config=eval_config)
               or evaluate(store, policy_ref=policy.ref, config=eval_config, normalized=True))
     store.runs.clear_sweep_status(plan.name, names["policy"])  # done: the driver says so from Ray
     return {"run": run.label, "policy": policy.ref, "normalized_score": result["normalized_score"]}
+
+
+def _stage(store: Store, plan: SweepPlan, run: SweepRun, stage: str, made: dict[str, Artifact]) -> Artifact:
+    """One stage of the run's chain on what ``made`` holds, once: its ledger fingerprint is the stage's artifact name,
+    config, seed and the parents it reads."""
+    import torch
+
+    config, kind = plan.run_config(stage, run), MAKES[stage]
+    name = plan.names(run)[kind]
+    record = _record(config, run.seed, *(made[read] for read in reads(stage, run.imitation)))
+    return _once(store, plan, kind, name, record,
+                 lambda: run_stage(store, stage, made=made, env_id=run.task, config=config, seed=run.seed, device=torch.device("cpu"),
+                                   name=name, resume=store.runs.has_checkpoint(kind, name)))
 
 
 def _record(config, seed: int, *parents: Artifact) -> dict:
@@ -127,7 +151,9 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     ray.init(address=address or "local", include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
+        embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
+        phi: dict = {}  # plan.phis: (task, seed, embedding arm) -> its φ, made when the first run of the arm is handed to Ray
         # Ray starts ready tasks in no set order: hand it only as many runs as its CPUs hold, in the plan's order
         at_once = max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads)
         waiting, pending = list(plan.runs), {}
@@ -137,7 +163,10 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         while waiting or pending:
             while waiting and len(pending) < at_once:
                 r = waiting.pop(0)
-                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)])] = r
+                shared = (r.task, r.seed, r.kind)
+                if shared not in phi:  # the arm's other methods wait for it (Ray holds no CPU for a task whose input is not ready)
+                    phi[shared] = embed_remote.remote(root, plan_dict, *shared, demos[r.task], data[(r.task, r.seed)])
+                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method, phi[shared])] = r
             done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=poll_seconds)
             for ref in done:
                 finished = pending.pop(ref)
@@ -171,7 +200,7 @@ def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
     curve = _curve(store, name)
     if curve is None:
         return f"{IMITATING}: before the first evaluation"
-    last, total = curve.iloc[-1], plan.config("imitate", run.kind).train.steps
+    last, total = curve.iloc[-1], plan.run_config("imitate", run).train.steps
     score = f", normalized score {last['normalized_score']:.1f}" if "normalized_score" in last else ""
     return f"{IMITATING}: step {int(last['step'])} of {total}{score}{_pace(curve, total)}"
 

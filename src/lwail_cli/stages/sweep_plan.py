@@ -9,54 +9,30 @@ and arm; ``[labels]`` gives an arm the public name the report's tables and figur
 An ``[axis]`` table varies one setting as the grid varies seeds: ``setting = "env.start_noise"``, ``values = [0.0,
 0.5]`` (and a short ``name``, the field's by default) make each arm one arm per value, ``<arm>-<name><value>``, the
 setting given to every stage after collect whose config holds it (data set I stays shared by the arms of a seed).
+``methods`` (``["lwail"]`` where not given) varies the imitation method the same way: every method of a task, seed and
+arm imitates on the same data set I and φ (made once, read by all), and only a method that reads a discriminator warms
+one up. A plan of LWAIL alone names its runs after their arm; one with other methods, ``<arm>-<method>``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .. import config as cfg
 from ..embeddings import EMBEDDINGS
 from ..errors import LwailError
-from ..names import check_name, closest
-from .chain import CHAIN
+from ..methods import METHODS
+from ..names import check_name
+from .declaration import FROM_GRID, PLAN_STAGES, read_table, stage_config
 from .demos import bundled_demos_path
+from .sweep_grid import DEFAULT_METHODS, Grid, SweepRun, along_axis, read_grid
 
-PLAN_STAGES = (*CHAIN, "eval")
-GRID_KEYS = {"tasks", "seeds", "embeddings"}
+__all__ = ["SweepPlan", "SweepRun", "grid_lines", "plan_from_dict", "read_plan"]
+
+GRID_KEYS = {"tasks", "seeds", "embeddings", "methods"}
 PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels", "axis"}
-AXIS_KEYS = {"setting", "values", "name"}
 VARIANT_STAGES = PLAN_STAGES[1:]  # data set I is shared by every embedding of a seed, so collect is the plan's alone
-
-
-@dataclass(frozen=True)
-class SweepRun:
-    task: str
-    seed: int
-    kind: str
-
-    @property
-    def label(self) -> str:
-        return f"{self.task} seed {self.seed} {self.kind}"
-
-
-@dataclass(frozen=True)
-class Grid:
-    """Every task × seed × embedding arm of it is a run."""
-
-    tasks: tuple[str, ...]
-    seeds: tuple[int, ...]
-    kinds: tuple[str, ...]  # embedding arms: an embedding kind or a variant's name
-
-    @property
-    def runs(self) -> list[SweepRun]:
-        return [SweepRun(task, seed, kind) for task in self.tasks for seed in self.seeds for kind in self.kinds]
-
-    def to_dict(self) -> dict:
-        return {"tasks": list(self.tasks), "seeds": list(self.seeds), "embeddings": list(self.kinds)}
 
 
 @dataclass(frozen=True)
@@ -71,7 +47,17 @@ class SweepPlan:
     @property
     def runs(self) -> list[SweepRun]:
         """Every grid's runs in order, each once."""
-        return list(dict.fromkeys(run for grid in self.grids for run in grid.runs))
+        named = self.methods != list(DEFAULT_METHODS)
+        return list(dict.fromkeys(run for grid in self.grids for run in grid.runs(named)))
+
+    @property
+    def methods(self) -> list[str]:
+        return list(dict.fromkeys(method for grid in self.grids for method in grid.methods))
+
+    @property
+    def arms(self) -> list[str]:
+        """Each run's arm (embedding arm × method) once, in the plan's order: the report's rows and colours."""
+        return list(dict.fromkeys(run.arm for run in self.runs))
 
     @property
     def tasks(self) -> list[str]:
@@ -86,18 +72,32 @@ class SweepPlan:
         """The (task, seed) of each data set I, shared by the runs of every arm of that task and seed."""
         return list(dict.fromkeys((run.task, run.seed) for run in self.runs))
 
+    @property
+    def phis(self) -> list[tuple[str, int, str]]:
+        """The (task, seed, embedding arm) of each φ, shared by the runs of every method of that arm."""
+        return list(dict.fromkeys((run.task, run.seed, run.kind) for run in self.runs))
+
     def label(self, arm: str) -> str:
         return self.labels.get(arm, arm)
+
+    def run_label(self, run: SweepRun) -> str:
+        """The public name of the run's arm: its embedding arm's, and its method's where the plan has several."""
+        method = f", {METHODS[run.imitation].label}" if len(self.methods) > 1 else ""
+        return self.label(run.kind) + method
 
     def embedding_kind(self, arm: str) -> str:
         return self.variants[arm]["kind"] if arm in self.variants else arm
 
-    def config(self, stage: str, arm: str | None = None):
-        """The stage's validated config: defaults, the plan's overrides, the arm's variant overrides, and for
-        pretrain-icvf the arm's embedding kind."""
+    def config(self, stage: str, arm: str | None = None, method: str | None = None):
+        """The stage's validated config: defaults, the plan's overrides, the arm's variant overrides, and what the
+        grid gives: for pretrain-icvf the arm's embedding kind, for imitate the method (LWAIL where none is named)."""
         variant = self.variants.get(arm, {})
-        fixed = [f"kind={self.embedding_kind(arm)}"] if stage == "pretrain-icvf" and arm is not None else []
-        return cfg.with_overrides(cfg.STAGES[stage](), self.overrides.get(stage, ()), variant.get(stage, ()), fixed)
+        given = {"pretrain-icvf": self.embedding_kind(arm) if arm is not None else None, "imitate": method or DEFAULT_METHODS[0]}
+        fixed = (f"{FROM_GRID[stage][0]}={given[stage]}",) if given.get(stage) is not None else ()
+        return stage_config(stage, self.overrides.get(stage, ()), variant.get(stage, ()), fixed)
+
+    def run_config(self, stage: str, run: SweepRun):
+        return self.config(stage, run.kind, run.imitation)
 
     def demos_name(self, task: str) -> str:
         return f"{self.name}-{task.lower()}-demos"
@@ -109,7 +109,7 @@ class SweepPlan:
         """Each artifact's name, by kind."""
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
         return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": f"{base}-{run.kind}",
-                "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.kind}"}
+                "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.arm}"}
 
     def to_dict(self) -> dict:
         also = {"also": [grid.to_dict() for grid in self.grids[1:]]} if len(self.grids) > 1 else {}
@@ -125,7 +125,7 @@ def grid_lines(plan: SweepPlan) -> list[str]:
     lines = [f"[set] {stage}: {', '.join(assignments)}" for stage, assignments in plan.overrides.items()]
     for run in plan.runs:
         own = "; ".join(f"{stage}: {', '.join(assignments)}" for stage, assignments in plan.variants.get(run.kind, {}).items() if stage != "kind")
-        lines.append(f"{run.label} ({plan.embedding_kind(run.kind)})" + (f"  {own}" if own else ""))
+        lines.append(f"{run.label} ({plan.embedding_kind(run.kind)}, {run.imitation})" + (f"  {own}" if own else ""))
     return lines
 
 
@@ -152,8 +152,8 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
     also = raw.get("also", [])
     if not isinstance(also, list) or not all(isinstance(table, dict) for table in also):
         raise LwailError(f"{source}: 'also' must be [[also]] tables, each with its own tasks, seeds and embeddings")
-    grids = (_read_grid(raw, source, variants),
-             *(_read_grid(table, f"{source}: [[also]] table {number}", variants, keys=GRID_KEYS) for number, table in enumerate(also, 1)))
+    grids = (read_grid(raw, source, variants),
+             *(read_grid(table, f"{source}: [[also]] table {number}", variants, keys=GRID_KEYS) for number, table in enumerate(also, 1)))
     unused = sorted(set(variants) - {kind for grid in grids for kind in grid.kinds})
     if unused:
         raise LwailError(f"{source}: [variants] {', '.join(unused)} defined but not listed in 'embeddings'")
@@ -167,87 +167,18 @@ def plan_from_dict(raw: dict, source: str) -> SweepPlan:
     if not set(labels) <= arms:
         raise LwailError(f"{source}: [labels] names {sorted(set(labels) - arms)}, which are not arms of the plan ({sorted(arms)})")
     if "axis" in raw:
-        grids, variants, labels = _along_axis(raw["axis"], f"{source}: [axis]", grids, variants, labels)
-    plan = SweepPlan(name, grids, _read_overrides(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads, labels)
+        grids, variants, labels = along_axis(raw["axis"], f"{source}: [axis]", grids, variants, labels, VARIANT_STAGES)
+    plan = SweepPlan(name, grids, read_table(raw.get("set", {}), PLAN_STAGES, f"{source}: [set]"), variants, threads, labels)
     for task in plan.tasks:
         bundled_demos_path(task)  # refuses a task without bundled demos
     for stage in PLAN_STAGES:
         for arm in plan.kinds:
-            plan.config(stage, arm)
+            for method in plan.methods:
+                plan.config(stage, arm, method)
     for run in plan.runs:
         for artifact_name in plan.names(run).values():
             check_name(artifact_name)
     return plan
-
-
-def _along_axis(axis, where: str, grids: tuple[Grid, ...], variants: dict, labels: dict) -> tuple[tuple[Grid, ...], dict, dict]:
-    """The grids, variants and labels with each arm made one variant per value of the axis's setting (given to every
-    stage after collect whose config holds it, after the arm's own overrides)."""
-    if not isinstance(axis, dict) or set(axis) - AXIS_KEYS or not {"setting", "values"} <= set(axis):
-        raise LwailError(f"{where} needs setting = \"section.field\" and values = [...] (and may hold a short name)")
-    setting, values = axis["setting"], axis["values"]
-    if not isinstance(setting, str) or not isinstance(values, list) or not values or len(set(map(str, values))) != len(values):
-        raise LwailError(f"{where}: 'setting' must name a setting as --set does, 'values' be a non-empty list of distinct values")
-    short = axis.get("name", setting.rpartition(".")[2])
-    if not isinstance(short, str):
-        raise LwailError(f"{where}: 'name' must be a short text naming the axis in the arms' names")
-    stages = [stage for stage in VARIANT_STAGES if _holds(stage, setting)]
-    if not stages:
-        raise LwailError(f"{where}: no stage after collect has the setting {setting!r}")
-    expanded, arms = {}, {}
-    for arm in dict.fromkeys(kind for grid in grids for kind in grid.kinds):
-        base = variants.get(arm, {"kind": arm})
-        for value in values:
-            text = str(value).lower() if isinstance(value, bool) else str(value)
-            point = f"{arm}-{short}{text}"
-            check_name(point)
-            extra = {stage: (*base.get(stage, ()), f"{setting}={text}") for stage in stages}
-            expanded[point] = {**base, **extra}
-            arms.setdefault(arm, []).append(point)
-            if arm in labels:
-                labels = {**labels, point: f"{labels[arm]}, {short} {text}"}
-    grids = tuple(Grid(grid.tasks, grid.seeds, tuple(point for kind in grid.kinds for point in arms[kind])) for grid in grids)
-    return grids, expanded, {arm: label for arm, label in labels.items() if arm in expanded}
-
-
-def _holds(stage: str, setting: str) -> bool:
-    """Whether the stage's config has the setting (``section.field``, as --set names it)."""
-    node = cfg.STAGES[stage]()
-    for part in setting.split("."):
-        if not dataclasses.is_dataclass(node) or part not in {f.name for f in dataclasses.fields(node)}:
-            return False
-        node = vars(node)[part]
-    return not dataclasses.is_dataclass(node)
-
-
-def _read_grid(table: dict, where: str, variants: dict, keys: set[str] | None = None) -> Grid:
-    """tasks, seeds and embeddings (icvf and identity where not given); ``keys``: the only keys the table may hold."""
-    unknown = set(table) - keys if keys is not None else set()
-    if unknown:
-        raise LwailError(f"{where}: unknown keys {sorted(unknown)}; it may hold {sorted(keys)}")
-    tasks, seeds, kinds = table.get("tasks"), table.get("seeds"), table.get("embeddings", ["icvf", "identity"])
-    if not _unique_list(tasks, str):
-        raise LwailError(f"{where}: 'tasks' must be a non-empty list of distinct env ids")
-    if not _unique_list(seeds, int) or min(seeds) < 0 or max(seeds) >= 2**31:
-        raise LwailError(f"{where}: 'seeds' must be a non-empty list of distinct integers in [0, 2^31)")
-    if not _unique_list(kinds, str):
-        raise LwailError(f"{where}: 'embeddings' must be a non-empty list drawn from {list(EMBEDDINGS)} and the plan's [variants]")
-    arms = [*EMBEDDINGS, *variants]
-    unknown_arm = next((kind for kind in kinds if kind not in arms), None)
-    if unknown_arm is not None:
-        raise LwailError(f"{where}: unknown embedding {unknown_arm!r} in 'embeddings'; {closest(unknown_arm, arms, 'arms (embedding kinds and [variants])')}")
-    return Grid(tuple(tasks), tuple(seeds), tuple(kinds))
-
-
-def _read_overrides(table, stages: tuple[str, ...], where: str) -> dict[str, tuple[str, ...]]:
-    if not isinstance(table, dict) or not set(table) <= set(stages):
-        raise LwailError(f"{where} may hold lists of field=value for the stages {list(stages)}")
-    for stage, assignments in table.items():
-        if not isinstance(assignments, list) or not all(isinstance(a, str) for a in assignments):
-            raise LwailError(f"{where} {stage} must be a list of \"field=value\" strings")
-        if stage == "pretrain-icvf" and any(a.partition("=")[0].strip() == "kind" for a in assignments):
-            raise LwailError(f"{where}: the embedding kind comes from 'embeddings' (or a variant's kind), not from pretrain-icvf")
-    return {stage: tuple(assignments) for stage, assignments in table.items()}
 
 
 def _read_variants(table, source: str) -> dict[str, dict]:
@@ -262,10 +193,7 @@ def _read_variants(table, source: str) -> dict[str, dict]:
         if not isinstance(variant, dict) or variant.get("kind") not in EMBEDDINGS:
             raise LwailError(f"{where} needs kind = one of {list(EMBEDDINGS)}")
         stages = {key: value for key, value in variant.items() if key != "kind"}
-        variants[name] = {"kind": variant["kind"], **_read_overrides(stages, VARIANT_STAGES, where)}
+        variants[name] = {"kind": variant["kind"], **read_table(stages, VARIANT_STAGES, where)}
     return variants
 
 
-def _unique_list(value, kind: type) -> bool:
-    return (isinstance(value, list) and len(value) > 0 and all(isinstance(v, kind) and not isinstance(v, bool) for v in value)
-            and len(set(value)) == len(value))
