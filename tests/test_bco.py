@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 import torch
 
-from conftest import committed_versions, write_states_npz
+from conftest import committed_versions, demos_and_identity, write_states_npz
 from lwail_cli import config as cfg
 from lwail_cli import learning_curve
 from lwail_cli.inverse_dynamics import STD_FLOOR, InverseDynamics, RunningStandardizer
@@ -58,9 +58,7 @@ def test_the_standardiser_is_the_running_mean_and_spread_with_the_references_flo
 @pytest.fixture
 def pendulum(store, cli):
     """Bundled demos, data set I (with the random policy's actions) and the identity embedding."""
-    demos.import_bundled_demos(store, env_id=ENV, name="ip")
-    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=1000), seed=0)
-    embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, name="ident", device=CPU)
+    demos_and_identity(store, ENV, 1000)
     return cli
 
 

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 import torch
 
-from conftest import committed_versions
+from conftest import committed_versions, demos_and_identity
 from lwail_cli import config as cfg
 from lwail_cli.discriminator import Critic
 from lwail_cli.icvf import Encoder
@@ -76,10 +76,8 @@ def test_gaifo_rewards_expert_pairs_above_policy_pairs_once_trained():
 
 @pytest.fixture
 def pendulum(store, cli):
-    """Bundled demos, a small random dataset and the identity embedding (no warm-up: GAIfO and PWIL read none)."""
-    demos.import_bundled_demos(store, env_id=ENV, name="ip")
-    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
-    embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, name="ident", device=CPU)
+    """Bundled demos, a small random dataset and the identity embedding (no warm-up: the baselines read none)."""
+    demos_and_identity(store, ENV, 300)
     return cli
 
 
