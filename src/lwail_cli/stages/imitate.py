@@ -10,7 +10,7 @@ import torch
 
 from .. import config as cfg
 from .. import learning_curve
-from ..data import Episode, transition_pairs, transitions_with_actions
+from ..data import transition_pairs, transitions_with_actions
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
 from ..loaders import critic_config, load_critic, load_dataset, load_encoder, parent, save_weights
@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from ..artifacts import Artifact, Store
+    from ..data import Episode
 
 DIAGNOSTIC_PAIRS = 4_000  # random-policy pairs of data set I whose reward is logged at each evaluation
 
@@ -41,8 +42,9 @@ def imitate(
         require_same_env(info, artifact.env, f"{artifact.kind} {artifact.ref}")
     critic = critic_config(disc) if disc else None  # f keeps the loss and learning rate it was warmed up with
     expert_states = expert_pairs(demos, config.expert_episodes)
-    dataset = parent(store, disc or embedding, "dataset")  # data set I: the random-policy pairs f was warmed up against
-    episodes = load_dataset(dataset)  # (LWAIL), else those φ was trained on
+    # data set I: the random-policy pairs f was warmed up against (LWAIL), else those φ was trained on
+    dataset = parent(store, disc or embedding, "dataset")
+    episodes = load_dataset(dataset)
     random_states = tuple(pairs[:DIAGNOSTIC_PAIRS] for pairs in transition_pairs(episodes))
     transitions = _with_actions(method, dataset, episodes) if method.reads_actions else None
     reference = reference_for_env(env_id, demos)
