@@ -45,3 +45,14 @@ def write_states_npz(path, episodes, obs_dim, length=20, seed=0, returns=None):
         arrays["returns"] = np.asarray(returns, dtype=np.float64)
     np.savez(path, **arrays)
     return path
+
+
+def demos_and_identity(store: Store, env_id: str, transitions: int) -> None:
+    """The bundled demos as "ip", data set I of ``transitions`` uniformly random steps (with their actions) and the
+    identity embedding "ident" on it: what a method that reads no warmed-up discriminator runs on."""
+    from lwail_cli import config as cfg
+    from lwail_cli.stages import collect, demos, embed
+
+    demos.import_bundled_demos(store, env_id=env_id, name="ip")
+    data = collect.collect(store, env_id=env_id, config=cfg.CollectConfig(transitions=transitions), seed=0)
+    embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, name="ident", device=torch.device("cpu"))

@@ -32,6 +32,25 @@ def test_config_round_trips_through_a_manifest_dict():
     assert cfg.from_dict(cfg.ImitationConfig, cfg.to_dict(config)) == config
 
 
+@pytest.mark.parametrize("method", cfg.METHODS)
+def test_an_imitation_record_holds_the_running_methods_settings_alone(method):
+    """A record (manifest, resume check, sweep fingerprint) keeps only what its run reads, so adding a method leaves
+    every other method's records, and the sweeps that fingerprint them, as they were."""
+    config = cfg.ImitationConfig(method=method)
+    record = cfg.to_dict(config)
+    assert {name for name in cfg.METHODS if name in record} == ({method} - {"lwail"})  # lwail's settings are top-level
+    assert ("update_every" in record) == ("update_steps" in record) == (method in cfg.ADVERSARIAL)
+    assert {"env", "td3", "train", "method", "expert_episodes"} <= set(record)
+    assert cfg.from_dict(cfg.ImitationConfig, record) == config
+
+
+@pytest.mark.parametrize("kind", cfg.EMBEDDING_KINDS)
+def test_an_embedding_config_records_the_section_its_kind_reads_alone(kind):
+    record = cfg.to_dict(cfg.EmbedConfig(kind=kind))
+    reads = {"identity": "icvf"}.get(kind, kind)  # the identity's probe reads icvf.holdout_fraction
+    assert set(record) == {"kind", reads}
+
+
 @pytest.mark.parametrize(
     "assignment, message",
     [

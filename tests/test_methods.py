@@ -8,11 +8,11 @@ import pandas as pd
 import pytest
 import torch
 
-from conftest import committed_versions
+from conftest import committed_versions, demos_and_identity
 from lwail_cli import config as cfg
 from lwail_cli.discriminator import Critic
 from lwail_cli.icvf import Encoder
-from lwail_cli.methods import METHODS
+from lwail_cli.methods import METHODS, Method
 from lwail_cli.methods.gaifo import GaifoTrainer
 from lwail_cli.methods.pwil import PrimalWassersteinReward
 from lwail_cli.replay import ReplayBuffer
@@ -28,9 +28,17 @@ TINY = ("--steps", "600", "--eval-every", "600", "--checkpoint-every", "600", "-
 
 
 def test_the_registry_lists_exactly_the_methods_the_config_offers():
-    assert list(METHODS) == list(cfg.METHODS) == ["lwail", "gaifo", "pwil"]
+    assert list(METHODS) == list(cfg.METHODS) == ["lwail", "gaifo", "pwil", "bco"]
     assert all(method.name == name for name, method in METHODS.items())
     assert [name for name, method in METHODS.items() if method.reads_discriminator] == ["lwail"]
+    # a reward learner for the TD3 loop, or a loop of its own: one of the two, never both
+    assert [name for name, method in METHODS.items() if method.train is not None] == ["bco"]
+    assert all((method.build is None) != (method.train is None) for method in METHODS.values())
+    assert [name for name, method in METHODS.items() if method.reads_actions] == ["bco"]
+    # the methods whose records keep update_every and update_steps: those that train an adversary on that schedule
+    assert cfg.ADVERSARIAL == tuple(name for name, method in METHODS.items() if method.caches_features)
+    with pytest.raises(ValueError, match="one of them"):
+        Method("both", "Both", "", reads_discriminator=False, caches_features=False, reward="", build=METHODS["gaifo"].build, train=METHODS["bco"].train)
 
 
 def test_pwil_rewards_an_expert_atom_alpha_a_far_pair_nothing_and_spends_each_atom_once_per_episode():
@@ -70,21 +78,23 @@ def test_gaifo_rewards_expert_pairs_above_policy_pairs_once_trained():
 
 @pytest.fixture
 def pendulum(store, cli):
-    """Bundled demos, a small random dataset and the identity embedding (no warm-up: GAIfO and PWIL read none)."""
-    demos.import_bundled_demos(store, env_id=ENV, name="ip")
-    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
-    embed.embed(store, data_ref=data.ref, config=cfg.EmbedConfig(kind="identity"), seed=0, name="ident", device=CPU)
+    """Bundled demos, a small random dataset and the identity embedding (no warm-up: the baselines read none)."""
+    demos_and_identity(store, ENV, 300)
     return cli
 
 
-@pytest.mark.parametrize("method", ["gaifo", "pwil"])
+OWN_SETTING = {"gaifo": "gaifo.lr=0.5", "pwil": "pwil.beta=0.5", "bco": "bco.lr=0.005"}  # one of each baseline's, recorded
+
+
+@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco"])
 def test_a_baseline_imitates_end_to_end_from_the_cli(pendulum, store, method):
-    setting = f"{method}.{'lr' if method == 'gaifo' else 'beta'}=0.5"  # one of the method's own settings, recorded
+    setting = OWN_SETTING[method]
     result = pendulum("imitate", ENV, "--demos", "ip", "--embedding", "ident", "--method", method, "--name", method, "--set", setting, *TINY)
     assert result.exit_code == 0, result.output
     policy = store.resolve(method, "policy")
     assert policy.config["method"] == method and policy.manifest["trained_on"] == METHODS[method].trained_on
-    assert policy.config[method] == cfg.to_dict(cfg.with_overrides(cfg.ImitationConfig(), [setting]))[method]
+    assert policy.config[method] == cfg.to_dict(cfg.with_overrides(cfg.ImitationConfig(method=method), [setting]))[method]
+    assert not {other for other in cfg.METHODS if other in policy.config} - {method}  # no other method's settings recorded
     assert policy.parent_kinds == ["demos", "embedding"]
     assert policy.file("discriminator.safetensors").is_file() == (method == "gaifo")
     assert np.isfinite(policy.metrics["return_mean"])
@@ -93,7 +103,7 @@ def test_a_baseline_imitates_end_to_end_from_the_cli(pendulum, store, method):
 def test_a_wrong_method_or_a_wrong_disc_is_refused_in_one_line(pendulum, store):
     refs = ("--demos", "ip", "--embedding", "ident")
     for args, message in [
-        (("--method", "nosuch"), "method must be one of lwail, gaifo, pwil, got 'nosuch'"),
+        (("--method", "nosuch"), "method must be one of lwail, gaifo, pwil, bco, got 'nosuch'"),
         (("--method", "gaifo", "--disc", "whatever"), "--method gaifo trains no warmed-up discriminator: drop --disc whatever"),
         (("--method", "lwail"), "--method lwail needs a warmed-up discriminator: give --disc REF"),
         ((), "--method lwail needs a warmed-up discriminator"),
@@ -107,7 +117,7 @@ class Killed(Exception):
     pass
 
 
-@pytest.mark.parametrize("method", ["gaifo", "pwil"])
+@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco"])
 def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
     bundled = demos.import_bundled_demos(store, env_id=ENV)
     data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
@@ -115,6 +125,7 @@ def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
     config = cfg.ImitationConfig(
         method=method, td3=cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64),
         train=cfg.TrainConfig(steps=1500, eval_every=1500, eval_episodes=2, checkpoint_every=500), update_every=400, update_steps=3,
+        bco=cfg.BcoConfig(idm_hidden=(32, 32), pretrain_steps=50, interval=300, idm_steps=20, bc_steps=20),
     )
     stages = dict(env_id=ENV, demos_ref=bundled.ref, embedding_ref=embedding.ref, config=config, seed=0, device=CPU)
     straight = imitate.imitate(store, name="straight", **stages)
@@ -127,7 +138,8 @@ def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
         imitate.imitate(store, name="killed", on_progress=kill, **stages)
     assert store.runs.load_checkpoint("policy", "killed")["run"]["step"] == 500
     resumed = imitate.imitate(store, name="killed", resume=True, **stages)
-    for name in ("actor.safetensors",) + (("discriminator.safetensors",) if method == "gaifo" else ()):
+    kept = {"gaifo": ("discriminator.safetensors",), "bco": ("inverse_dynamics.safetensors",)}.get(method, ())
+    for name in ("actor.safetensors",) + kept:
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
     pd.testing.assert_frame_equal(_curve(straight), _curve(resumed))  # the learner's diagnostics included
 
@@ -139,10 +151,10 @@ def _curve(policy):
 def test_a_plan_varies_methods_as_it_varies_embeddings_and_only_lwail_warms_up_a_discriminator():
     plan = read_plan(Path(__file__).parents[1] / "plans" / "methods-mujoco.toml")
     methods = {run.arm: (plan.embedding_kind(run.kind), plan.run_config("imitate", run).method) for run in plan.runs}
-    assert methods == {f"{kind}-{method}": (kind, method) for kind in ("icvf", "identity") for method in ("lwail", "gaifo", "pwil")}
-    assert (len(plan.runs), len(plan.phis)) == (18, 6)
+    assert methods == {f"{kind}-{method}": (kind, method) for kind in ("icvf", "identity") for method in ("lwail", "gaifo", "pwil", "bco")}
+    assert (len(plan.runs), len(plan.phis)) == (24, 6)
     names = {run.method: plan.names(run) for run in plan.runs if (run.task, run.kind) == ("Hopper-v5", "icvf")}
-    assert {n["embedding"] for n in names.values()} == {"methods-mujoco-hopper-v5-s0-icvf"}  # one φ for the three methods
-    assert [n["policy"] for n in names.values()] == [f"methods-mujoco-hopper-v5-s0-icvf-{m}" for m in ("lwail", "gaifo", "pwil")]
+    assert {n["embedding"] for n in names.values()} == {"methods-mujoco-hopper-v5-s0-icvf"}  # one φ for the four methods
+    assert [n["policy"] for n in names.values()] == [f"methods-mujoco-hopper-v5-s0-icvf-{m}" for m in ("lwail", "gaifo", "pwil", "bco")]
     assert chain_for("lwail") == CHAIN and chain_for("gaifo") == chain_for("pwil") == ("collect", "pretrain-icvf", "imitate")
     assert reads("imitate", "lwail") == ("demos", "embedding", "discriminator") and reads("imitate", "pwil") == ("demos", "embedding")

@@ -19,7 +19,8 @@ MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps tak
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
-METHODS = ("lwail", "gaifo", "pwil")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
+METHODS = ("lwail", "gaifo", "pwil", "bco")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
+ADVERSARIAL = ("lwail", "gaifo")  # the methods whose adversary trains on the update_every schedule (imitation.AdversarialReward)
 
 
 # ------------------------------------------------------------------------------ shared sections
@@ -166,9 +167,9 @@ EMBEDDING_KINDS = ("icvf", "identity", "infonce", "curl")  # one entry each in e
 @dataclass(frozen=True)
 class EmbedConfig(Validated):
     kind: str = setting("icvf", "icvf, identity (the paper's no-embedding ablation), infonce (PW-DICE's) or curl; docs/algorithm.md", choices=EMBEDDING_KINDS)
-    icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (the identity reads only holdout_fraction, for its probe)")
-    infonce: InfoNCEConfig = section(InfoNCEConfig, "InfoNCE settings, next state as the positive (kind infonce)")
-    curl: CURLConfig = section(CURLConfig, "CURL settings, noisy copies as positives (kind curl)")
+    icvf: ICVFConfig = section(ICVFConfig, "ICVF settings (the identity reads only holdout_fraction, for its probe)", used_when=("kind", ("icvf", "identity")))
+    infonce: InfoNCEConfig = section(InfoNCEConfig, "InfoNCE settings, next state as the positive (kind infonce)", used_when=("kind", ("infonce",)))
+    curl: CURLConfig = section(CURLConfig, "CURL settings, noisy copies as positives (kind curl)", used_when=("kind", ("curl",)))
 
 
 @dataclass(frozen=True)
@@ -199,16 +200,36 @@ class PwilConfig(Validated):
 
 
 @dataclass(frozen=True)
+class BcoConfig(Validated):
+    """BCO(α): an inverse-dynamics model on data set I's actions, then behaviour cloning of the actions it infers for
+    the demo, in rounds while the policy interacts (methods/bco.py; OPOLO's td3bco.py and idm.py)."""
+
+    idm_hidden: tuple[int, ...] = setting((256, 256), "hidden widths of the inverse-dynamics model (tanh), the reference's", low=1, high=4096)
+    idm_lr: float = setting(3e-4, "Adam learning rate of the inverse-dynamics model (the reference's)", low=1e-7, high=1.0)
+    idm_weight_decay: float = setting(1e-3, "weight of the L2 term ½·Σw² over the model's weights and biases, added to its loss (the reference's)", low=0.0, high=10.0)
+    lr: float = setting(1e-3, "Adam learning rate of the cloned policy (the reference's MuJoCo learning_rate)", low=1e-7, high=1.0)
+    batch_size: int = setting(100, "transitions per gradient step of the model, demo pairs per step of the policy (the reference's)", low=1, high=65_536)
+    pretrain_steps: int = setting(1_000, "gradient steps of the model on data set I before the policy is first cloned (the reference's 100/α)", low=0, high=MAX_STEPS)
+    interval: int = setting(1_000, "env steps between rounds of post-demonstration updates (the reference's train_freq)", low=1, high=MAX_STEPS)
+    idm_steps: int = setting(100, "gradient steps of the model per round, on data set I and every transition played so far", low=0, high=100_000)
+    bc_steps: int = setting(100, "gradient steps of the policy per round (and at the start) on the demo's inferred actions", low=0, high=100_000)
+    exploration_noise: float = setting(0.1, "Gaussian noise on the policy's actions while it plays, times the action scale", low=0.0, high=10.0)
+
+
+@dataclass(frozen=True)
 class ImitationConfig(Validated):
     env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
-    method: str = setting("lwail", "the reward learner: lwail (σ(−f), needs --disc), gaifo or pwil (docs/algorithm.md)", choices=METHODS)
-    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo)", low=1, high=MAX_STEPS)
-    update_steps: int = setting(40, "full-batch steps of f or D per update (paper: 40, authors' code: 30)", low=0, high=100_000)
+    method: str = setting("lwail", "the imitation method: lwail (σ(−f), needs --disc), gaifo or pwil (TD3 on their reward), or bco (its own loop) (docs/algorithm.md)", choices=METHODS)
+    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo)", low=1, high=MAX_STEPS,
+                                 used_when=("method", ADVERSARIAL))
+    update_steps: int = setting(40, "full-batch steps of f or D per update (paper: 40, authors' code: 30)", low=0, high=100_000,
+                                 used_when=("method", ADVERSARIAL))
     expert_episodes: int = setting(1, "expert trajectories to imitate", low=1, high=10_000)
-    gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (method gaifo)")
-    pwil: PwilConfig = section(PwilConfig, "PWIL's reward (method pwil)")
+    gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (method gaifo)", used_when=("method", ("gaifo",)))
+    pwil: PwilConfig = section(PwilConfig, "PWIL's reward (method pwil)", used_when=("method", ("pwil",)))
+    bco: BcoConfig = section(BcoConfig, "BCO's inverse-dynamics model and cloned policy (method bco)", used_when=("method", ("bco",)))
 
 
 @dataclass(frozen=True)

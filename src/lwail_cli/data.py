@@ -64,6 +64,15 @@ def transition_pairs(episodes: list[Episode]) -> tuple[np.ndarray, np.ndarray]:
     return states, successors
 
 
+def transitions_with_actions(episodes: list[Episode]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """All ``(s, a, s')`` inside episodes as float32 arrays, or None where an episode has no actions or a missing
+    (NaN) one: an imported state-only data set stores NaN actions (its format needs some)."""
+    if any(e.actions is None or not np.all(np.isfinite(e.actions)) for e in episodes):
+        return None
+    states, successors = transition_pairs(episodes)
+    return states, np.concatenate([e.actions for e in episodes]).astype(np.float32), successors
+
+
 def validate_episodes(episodes: list[Episode], env: EnvInfo, source: str) -> None:
     if not episodes:
         raise LwailError(f"{source} holds no episodes")

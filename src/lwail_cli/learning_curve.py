@@ -31,12 +31,15 @@ PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT = "pseudo_reward_std", "reward_slo
 # what TD3's critic expects the evaluated policy to earn, min over its twins of Q(s, π(s)), over the states of the
 # evaluation's episodes: its mean, and its spread (a flat reward leaves a Q that cannot tell states apart either)
 Q_POLICY_MEAN, Q_POLICY_STD = "q_policy_mean", "q_policy_std"
+# BCO's two regressions at their last gradient step (methods/bco.py): the inverse-dynamics model's squared error on
+# the actions it was trained on, and the cloned policy's on the actions inferred for the demo (both in [-1, 1] units)
+IDM_LOSS, BC_LOSS = "idm_loss", "bc_loss"
 SUCCESS_RATE = "success_rate"  # tasks whose env reports info["success"] (the mazes): the episodes that reached the goal
 
 # the columns `lwail curve` prints, in this order, where a curve has them (the rest stay in the file)
 TABLE = ("step", "wall_time", "return_mean", "return_std", "normalized_score", SUCCESS_RATE,
          *(f"{name}_normalized_score" for name in POLICY_NETWORKS), *REWARDS, WASSERSTEIN, DISCRIMINATOR_LOSS, PSEUDO_RETURN_SPEARMAN,
-         PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, Q_POLICY_MEAN, Q_POLICY_STD, "episodes_terminated")
+         PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT, Q_POLICY_MEAN, Q_POLICY_STD, IDM_LOSS, BC_LOSS, "episodes_terminated")
 
 LAST_FRACTION = 0.1  # "the last 100k" of a 1M-step run: the evaluations after step 0.9·N
 FIGURES = ("at_end", "last_10pct_mean", "second_half_mean", "second_half_min", "best")  # curve_figures' scores

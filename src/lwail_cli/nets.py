@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
-from typing import Protocol
+from typing import Callable, Protocol
 
 import torch
 import torch.nn.functional as F
@@ -27,13 +27,16 @@ def soft_update(target: nn.Module, source: nn.Module, tau: float) -> None:
     torch._foreach_add_(target_params, list(source.parameters()), alpha=tau)
 
 
-def mlp(in_dim: int, hidden: tuple[int, ...], out_dim: int, activate_final: bool = False) -> nn.Sequential:
+def mlp(in_dim: int, hidden: tuple[int, ...], out_dim: int, activate_final: bool = False,
+        activation: Callable[[], nn.Module] = partial(nn.ReLU, inplace=True)) -> nn.Sequential:
+    """Linear layers, each but the last (unless ``activate_final``) followed by a new ``activation()`` module: ReLU
+    in place (on a fresh Linear output, as in ACTIVATIONS) unless another is given."""
     layers: list[nn.Module] = []
     dims = (in_dim, *hidden, out_dim)
     for index, (fan_in, fan_out) in enumerate(zip(dims[:-1], dims[1:])):
         layers.append(nn.Linear(fan_in, fan_out))
         if index < len(dims) - 2 or activate_final:
-            layers.append(nn.ReLU(inplace=True))  # on a fresh Linear output, as in ACTIVATIONS
+            layers.append(activation())
     return nn.Sequential(*layers)
 
 

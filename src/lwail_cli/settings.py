@@ -19,20 +19,25 @@ from dataclasses import field
 from .errors import LwailError
 
 
-def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None, resume_may_change=False):
+def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None, resume_may_change=False,
+            used_when: tuple[str, tuple] | None = None):
     """A config field: its default, a one-line doc, and the bounds checked on every construction
     (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values). ``aliases`` maps
     values an older lwail recorded (or a plan still spells) to the value they mean now. ``resume_may_change``: a
     killed run may be resumed with another value, because the field sets only the budget or how the run is watched
     (logged, evaluated, checkpointed) and draws no training randomness; a resume that changes any other field is
-    refused (tests/test_lwail.py checks both bit for bit)."""
+    refused (tests/test_lwail.py checks both bit for bit). ``used_when``: as for ``section``."""
     return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices,
-                                            "aliases": aliases or {}, "resume_may_change": resume_may_change})
+                                            "aliases": aliases or {}, "resume_may_change": resume_may_change,
+                                            "used_when": used_when})
 
 
-def section(factory, doc: str):
-    """A nested config (e.g. the TD3 settings inside the imitation config)."""
-    return field(default_factory=factory, metadata={"doc": doc})
+def section(factory, doc: str, *, used_when: tuple[str, tuple] | None = None):
+    """A nested config (e.g. the TD3 settings inside the imitation config). ``used_when = (field, values)``: read
+    only when the config's ``field`` (e.g. ``method``) is one of ``values``; otherwise it is left out of the record,
+    so a run's record (its manifest, its resume check, a sweep's fingerprint) holds only what the run reads and stays
+    the same when another method's or embedding's section is added."""
+    return field(default_factory=factory, metadata={"doc": doc, "used_when": used_when})
 
 
 class Validated:
@@ -84,9 +89,19 @@ def _check(owner: str, f: dataclasses.Field, hint, value) -> None:
 
 # ------------------------------------------------------------------------------ dicts and overrides
 def to_dict(config) -> dict:
-    """The config as plain data for a manifest (read through ``vars`` so recording is not "using")."""
-    return {name: to_dict(value) if dataclasses.is_dataclass(value) else (list(value) if isinstance(value, tuple) else value)
-            for name, value in vars(config).items()}
+    """The config as plain data for a manifest (read through ``vars`` so recording is not "using"), without the fields
+    its selectors leave unread (``used_when``); ``from_dict`` gives those their defaults."""
+    return {f.name: _plain(vars(config)[f.name]) for f in dataclasses.fields(config) if _read(config, f)}
+
+
+def _plain(value):
+    return to_dict(value) if dataclasses.is_dataclass(value) else (list(value) if isinstance(value, tuple) else value)
+
+
+def _read(config, f: dataclasses.Field) -> bool:
+    """Whether ``config`` reads field ``f``: always, unless its ``used_when`` selector picks other values."""
+    selector = f.metadata.get("used_when")
+    return selector is None or vars(config)[selector[0]] in selector[1]
 
 
 def from_dict(cls, data: dict):

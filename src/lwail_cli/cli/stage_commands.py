@@ -168,7 +168,7 @@ def imitate(
     *,
     config: cfg.ImitationConfig,
 ) -> None:
-    """Imitate with TD3 on an imitation method's reward: LWAIL's σ(−f(φ(s), φ(s'))) (the default), GAIfO's or PWIL's."""
+    """Imitate with TD3 on an imitation method's reward: LWAIL's σ(−f(φ(s), φ(s'))) (the default), GAIfO's or PWIL's; or with BCO's own loop."""
     with progress_bar(f"imitate {env_id}", config.train.steps, online_stage.budget_warnings(config)) as report:
         artifact = imitate_stage.imitate(
             store(), env_id=env_id, demos_ref=demos, embedding_ref=embedding, disc_ref=disc, config=config, seed=seed,

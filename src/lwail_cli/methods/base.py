@@ -1,5 +1,6 @@
 """What every imitation method is: its registry entry (``Method``), what it is built from (``Inputs``) and what it
-builds (a ``Learner``, the reward model the TD3 loop runs). The registry itself: ``methods/__init__.py``."""
+builds: a ``Learner``, the reward model the TD3 loop runs, or, for a method with a loop of its own, the ``Trained``
+policy that loop ends with, given the run's ``Session``. The registry itself: ``methods/__init__.py``."""
 
 from __future__ import annotations
 
@@ -13,7 +14,10 @@ if TYPE_CHECKING:
 
     from ..config import CriticConfig, ImitationConfig
     from ..discriminator import Critic
+    from ..envs import EnvInfo
+    from ..evaluation import Reference
     from ..icvf import Encoder
+    from ..training import RunState
 
 
 class Learner(RewardModel, Protocol):
@@ -21,6 +25,15 @@ class Learner(RewardModel, Protocol):
 
     def weights(self) -> dict[str, dict]:
         """File name -> state dict of each network the artifact keeps (none for a learner that trains nothing)."""
+
+
+@dataclass(frozen=True)
+class Transitions:
+    """Data set I's transitions with the random policy's actions, as tensors on the run's device."""
+
+    observations: torch.Tensor
+    actions: torch.Tensor
+    next_observations: torch.Tensor
 
 
 @dataclass(frozen=True)
@@ -34,6 +47,35 @@ class Inputs:
     capacity: int  # the replay buffer's
     critic: Critic | None = None  # the warmed-up f, for a method that reads a discriminator artifact
     critic_config: CriticConfig | None = None  # the settings f was warmed up with
+    expert_states: torch.Tensor | None = None  # the raw s of each expert pair, in the same order (what a policy acts on)
+    dataset: Transitions | None = None  # data set I with its actions, for a method that reads them (``Method.reads_actions``)
+
+
+@dataclass(frozen=True)
+class Session:
+    """What the stage hands a method that runs its own loop: the task, the seed (torch is seeded with it already),
+    the device, the reference scores, the checkpoint a resumed run goes on from, and where the loop reports
+    (``training.online_loop``'s callbacks)."""
+
+    info: EnvInfo
+    seed: int
+    device: torch.device
+    reference: Reference | None
+    resume: dict | None
+    on_checkpoint: Callable[[dict], None]
+    on_evaluation: Callable[[RunState], None]
+    on_progress: Callable[[int, RunState], None] | None
+    progress_every: int
+
+
+@dataclass(frozen=True)
+class Trained:
+    """What an imitation run ends with, whatever trained it: its run state (curve, best, wall time), the policy
+    network the artifact keeps as its actor, and the other networks it keeps (file name -> state dict)."""
+
+    state: RunState
+    actor: torch.nn.Module
+    weights: dict[str, dict]
 
 
 @dataclass(frozen=True)
@@ -43,5 +85,11 @@ class Method:
     trained_on: str  # what its policy artifacts say they were trained on
     reads_discriminator: bool  # needs a warmed-up f (`lwail warmup-disc`, --disc); a method that does not refuses one
     caches_features: bool  # keeps every buffered pair's features (the replay memory check counts them)
-    build: Callable[[Inputs], Learner]
-    reward: str  # the reward TD3 is given, as figures and their legends write it (e.g. σ(−f))
+    reward: str  # the reward TD3 is given, as figures and their legends write it (e.g. σ(−f)); a method without one says so
+    build: Callable[[Inputs], Learner] | None = None  # the reward learner the TD3 loop runs, or
+    train: Callable[[Inputs, Session], Trained] | None = None  # a loop of its own, run instead of TD3's
+    reads_actions: bool = False  # learns from data set I's actions: a data set without them is refused up front
+
+    def __post_init__(self) -> None:
+        if (self.build is None) == (self.train is None):
+            raise ValueError(f"method {self.name}: give build (a reward learner for the TD3 loop) or train (its own loop), one of them")

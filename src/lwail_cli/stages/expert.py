@@ -9,7 +9,7 @@ from .. import learning_curve
 from ..envs import describe_env
 from ..loaders import save_weights
 from ..runs import open_run, run_record
-from .online import final_metrics, start_online_run, train_policy, write_curve
+from .online import final_metrics, session, start_online_run, train_policy, write_curve
 from .shared import Progress, default_name, reference_for_env
 
 if TYPE_CHECKING:
@@ -28,8 +28,8 @@ def train_expert(
     record = cfg.to_dict(config)
     with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, []), config_class=cfg.ExpertConfig) as run:
         capacity = start_online_run(run, info, config, seed)
-        trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
-                               reference=reference, on_progress=on_progress)
+        hooks = session(run, info=info, seed=seed, device=device, reference=reference, on_progress=on_progress)
+        trained = train_policy(hooks, config=config, capacity=capacity)
         state = trained.state
         with store.create("policy", name, env=info, config=record, seed=seed, parents=[], extra={"trained_on": "true reward"}) as writer:
             write_curve(writer.path(learning_curve.FILE), state)

@@ -1,28 +1,30 @@
-"""Stage: imitation — TD3 on the reward of an imitation method (``methods.METHODS``: LWAIL's σ(−f(φ(s), φ(s'))), f
-updated online from the warmed-up critic, or a baseline), all on the same φ, demo, seeds and evaluation."""
+"""Stage: imitation — an imitation method of ``methods.METHODS`` on the same φ, demo, seeds and evaluation: TD3 on its
+reward (LWAIL's σ(−f(φ(s), φ(s'))), f updated online from the warmed-up critic, or a baseline's), or its own loop (BCO)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import pandas as pd
+import torch
 
 from .. import config as cfg
 from .. import learning_curve
-from ..data import transition_pairs
+from ..data import transition_pairs, transitions_with_actions
 from ..envs import describe_env, require_same_env
 from ..errors import LwailError
 from ..loaders import critic_config, load_critic, load_dataset, load_encoder, parent, save_weights
-from ..methods import METHODS, Inputs, Method
+from ..methods import METHODS, Inputs, Method, Session, Trained, Transitions
 from ..plots import plot_run
 from ..runs import open_run, run_record
-from .online import final_metrics, start_online_run, train_policy, write_curve
+from .online import final_metrics, session, start_online_run, train_policy, write_curve
 from .shared import Progress, default_name, expert_pairs, pair_features, reference_for_env
 
 if TYPE_CHECKING:
-    import torch
+    import numpy as np
 
     from ..artifacts import Artifact, Store
+    from ..data import Episode
 
 DIAGNOSTIC_PAIRS = 4_000  # random-policy pairs of data set I whose reward is logged at each evaluation
 
@@ -40,8 +42,11 @@ def imitate(
         require_same_env(info, artifact.env, f"{artifact.kind} {artifact.ref}")
     critic = critic_config(disc) if disc else None  # f keeps the loss and learning rate it was warmed up with
     expert_states = expert_pairs(demos, config.expert_episodes)
-    # the random-policy pairs f was warmed up against (LWAIL), else those φ was trained on
-    random_states = tuple(pairs[:DIAGNOSTIC_PAIRS] for pairs in transition_pairs(load_dataset(parent(store, disc or embedding, "dataset"))))
+    # data set I: the random-policy pairs f was warmed up against (LWAIL), else those φ was trained on
+    dataset = parent(store, disc or embedding, "dataset")
+    episodes = load_dataset(dataset)
+    random_states = tuple(pairs[:DIAGNOSTIC_PAIRS] for pairs in transition_pairs(episodes))
+    transitions = _with_actions(method, dataset, episodes) if method.reads_actions else None
     reference = reference_for_env(env_id, demos)
     name = name or default_name(env_id, config.method)
     parents = [demos, embedding] + ([disc] if disc else [])
@@ -51,22 +56,40 @@ def imitate(
         capacity = start_online_run(run, info, config, seed, feature_width=width)  # then φ and the method's networks
         # (a warmed-up f's initial weights replaced by its artifact's) draw from torch's generator before the agent does
         encoder = load_encoder(embedding, device)
-        reward_model = method.build(Inputs(
+        inputs = Inputs(
             config=config, encoder=encoder, expert=pair_features(encoder, *expert_states, device),
             random=pair_features(encoder, *random_states, device), capacity=capacity,
             critic=load_critic(disc, device) if disc else None, critic_config=critic,
-        ))
-        trained = train_policy(run, info=info, config=config, seed=seed, capacity=capacity, device=device,
-                               reward_model=reward_model, reference=reference, on_progress=on_progress)
+            expert_states=torch.as_tensor(expert_states[0], device=device),
+            dataset=Transitions(*(torch.as_tensor(array, device=device) for array in transitions)) if transitions else None,
+        )
+        hooks = session(run, info=info, seed=seed, device=device, reference=reference, on_progress=on_progress)
+        trained = method.train(inputs, hooks) if method.train is not None else _td3_on_reward(method, inputs, hooks)
         with store.create("policy", name, env=info, config=record, seed=seed, parents=parents, extra={"trained_on": method.trained_on}) as writer:
             write_curve(writer.path(learning_curve.FILE), trained.state)
-            save_weights(writer.path("actor.safetensors"), trained.agent.network(config.train.policy).state_dict())
-            for filename, weights in reward_model.weights().items():
+            save_weights(writer.path("actor.safetensors"), trained.actor.state_dict())
+            for filename, weights in trained.weights.items():
                 save_weights(writer.path(filename), weights)
             plot_run(pd.DataFrame(trained.state.history), writer.path("learning_curve.png"), writer.path("pseudo_reward_vs_return.png"),
                      f"{method.label} on {env_id}", method.reward)
             writer.metrics.update(final_metrics(trained.state, reference))
     return writer.artifact
+
+
+def _td3_on_reward(method: Method, inputs: Inputs, hooks: Session) -> Trained:
+    """TD3 on the reward learner the method builds (after φ, so that it draws from torch's generator before the agent)."""
+    reward_model = method.build(inputs)
+    trained = train_policy(hooks, config=inputs.config, capacity=inputs.capacity, reward_model=reward_model)
+    return Trained(trained.state, trained.agent.network(inputs.config.train.policy), reward_model.weights())
+
+
+def _with_actions(method: Method, dataset: Artifact, episodes: list[Episode]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Data set I's (s, a, s'), refused in one line where it has no actions (an imported state-only data set)."""
+    transitions = transitions_with_actions(episodes)
+    if transitions is None:
+        raise LwailError(f"--method {method.name} learns from data set I's actions, but {dataset.ref} has none (imported "
+                         "state-only): give an --embedding trained on a data set from `lwail collect`")
+    return transitions
 
 
 def _discriminator(store: Store, method: Method, disc_ref: str | None, embedding: Artifact) -> Artifact | None:

@@ -1,8 +1,8 @@
-"""An online TD3 run from its opened run folder to its results: what `expert train` and `imitate` share.
+"""An online run from its opened run folder to its results: what `expert train` and `imitate` share.
 
 A stage opens the run (``runs.open_run``), calls ``start_online_run`` (which seeds torch), builds what it adds
-(LWAIL's reward model), calls ``train_policy`` and writes its own artifact from the ``TrainedPolicy`` it gets back.
-"""
+(LWAIL's reward model), and trains through ``session``'s hooks: TD3 with ``train_policy``, or the loop of a method
+that has its own (BCO); it writes its own artifact from what it gets back."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import torch
 
 from .. import learning_curve
 from ..errors import LwailError
+from ..methods import METHODS, Session
 from ..replay import ReplayBuffer
 from ..td3 import TD3
 from ..training import RunState, train_td3
@@ -74,10 +75,12 @@ def budget_warnings(config: cfg.ExpertConfig | cfg.ImitationConfig) -> list[str]
     checks the chain works is legitimate."""
     steps, td3, train = config.train.steps, config.td3, config.train
     warnings = []
-    if steps < td3.learning_starts:
+    # an expert, or a method the TD3 loop runs (a method with its own loop, BCO, reads neither td3 setting)
+    trains_td3 = getattr(config, "method", None) is None or METHODS[config.method].build is not None
+    if trains_td3 and steps < td3.learning_starts:
         warnings.append(f"--steps {steps} is below td3.learning_starts ({td3.learning_starts}): TD3 never updates, the policy "
                         "kept is its untrained initial network")
-    elif steps <= td3.random_steps:
+    elif trains_td3 and steps <= td3.random_steps:
         warnings.append(f"--steps {steps} is at most td3.random_steps ({td3.random_steps}): every action is uniformly random, "
                         "the policy kept never acted (raise --steps or lower --set td3.random_steps=N)")
     if train.eval_every > steps:
@@ -85,23 +88,30 @@ def budget_warnings(config: cfg.ExpertConfig | cfg.ImitationConfig) -> list[str]
     return warnings
 
 
-def train_policy(
-    run: Run, *, info: EnvInfo, config: cfg.ExpertConfig | cfg.ImitationConfig, seed: int, capacity: int,
-    device: torch.device, reward_model: RewardModel | None = None, reference: Reference | None = None,
-    on_progress: Progress | None = None,
-) -> TrainedPolicy:
+def train_policy(hooks: Session, *, config: cfg.ExpertConfig | cfg.ImitationConfig, capacity: int,
+                 reward_model: RewardModel | None = None) -> TrainedPolicy:
     """Build the agent and its buffer (torch seeded before, the reward model built after the seed) and train to
-    ``config.train.steps``, checkpointing into ``run`` and logging each evaluation to its learning curve."""
-    agent = TD3(info, config.td3, device, average_tau=config.train.average_tau)
-    buffer = ReplayBuffer(capacity, info.obs_dim, info.act_dim, device)
+    ``config.train.steps``, checkpointing and logging each evaluation where ``hooks`` (``session``) say."""
+    agent = TD3(hooks.info, config.td3, hooks.device, average_tau=config.train.average_tau)
+    buffer = ReplayBuffer(capacity, hooks.info.obs_dim, hooks.info.act_dim, hooks.device)
     state = train_td3(
-        info.id, agent, buffer, config.td3, config.train, seed, reward_model=reward_model, reference=reference,
-        resume=run.resume, on_checkpoint=run.save_checkpoint,
-        on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
-        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history), progress_every=PROGRESS_EVERY,
-        start_noise=config.env.start_noise,
+        hooks.info.id, agent, buffer, config.td3, config.train, hooks.seed, reward_model=reward_model, reference=hooks.reference,
+        resume=hooks.resume, on_checkpoint=hooks.on_checkpoint, on_progress=hooks.on_progress,
+        on_evaluation=hooks.on_evaluation, progress_every=hooks.progress_every, start_noise=config.env.start_noise,
     )
     return TrainedPolicy(state, agent)
+
+
+def session(run: Run, *, info: EnvInfo, seed: int, device: torch.device, reference: Reference | None,
+            on_progress: Progress | None) -> Session:
+    """What an online loop in ``run`` reports to: checkpoints into the run, each evaluation to its learning curve,
+    progress as ``run_summary`` figures; and the checkpoint a resumed run goes on from."""
+    return Session(
+        info=info, seed=seed, device=device, reference=reference, resume=run.resume, on_checkpoint=run.save_checkpoint,
+        on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
+        on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
+        progress_every=PROGRESS_EVERY,
+    )
 
 
 WARNING = "warning"  # a line the caller prints once, beside the progress (not a figure)
