@@ -361,3 +361,51 @@ def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(sto
     monkeypatch.setattr(sweep.os, "cpu_count", lambda: 2)
     assert sweep.run_sweep(store, plan=plan, poll_seconds=0) == []
     assert started == [(run.task, run.seed, run.kind) for run in plan.runs] and len(started) == 6
+
+
+def test_the_queue_trains_an_arms_phi_on_one_core_while_the_other_works_and_hands_runs_out_in_the_plans_order():
+    from lwail_cli.stages.sweep_queue import RunQueue
+    from lwail_cli.stages.sweep_plan import SweepRun
+
+    task = "Hopper-v5"
+    plan = [SweepRun(task, 0, kind, method) for kind in ("icvf", "identity") for method in ("lwail", "gaifo", "pwil")]
+    queue = RunQueue(list(plan), places=2)
+    # both places train a φ (the old driver gave both to the first arm's runs, which waited on one φ: a core idle)
+    assert queue.take() == ([(task, 0, "icvf"), (task, 0, "identity")], [])
+    queue.phi_made((task, 0, "icvf"))
+    assert queue.take() == ([], plan[:1])  # one place freed: the first run of the arm whose φ is made
+    queue.phi_made((task, 0, "identity"))
+    assert queue.take() == ([], plan[1:2])  # then the plan's order, not the arm that finished last
+    queue.run_ended()
+    assert queue.take() == ([], plan[2:3])
+    queue.run_ended(), queue.run_ended()
+    assert queue.take() == ([], plan[3:5])
+    while queue.unfinished():
+        queue.run_ended()
+        assert queue.busy() <= 2
+        queue.take()
+    assert queue.running == 0 and not queue.parked and not queue.waiting
+
+
+@pytest.mark.parametrize("places", [1, 2, 3])
+def test_the_queue_never_leaves_a_place_free_while_work_waits_and_runs_each_once(places):
+    """A simulated sweep (a φ takes 3 ticks, a run 7): every run handed out once, in the plan's order, never more than
+    ``places`` at work, and a place is free only when nothing could start."""
+    from lwail_cli.stages.sweep_queue import RunQueue, arm_of
+    from lwail_cli.stages.sweep_plan import SweepRun
+
+    plan = [SweepRun(task, seed, kind, method) for task in ("Hopper-v5", "Walker2d-v5") for seed in (0, 1)
+            for kind in ("icvf", "identity") for method in ("lwail", "pwil")]
+    queue, handed, work = RunQueue(list(plan), places=places), [], {}  # work: what is being done -> ticks left
+    while queue.unfinished():
+        phis, runs = queue.take()
+        work |= {("phi", arm): 3 for arm in phis} | {("run", run): 7 for run in runs}
+        handed += runs
+        assert len(work) == queue.busy() <= places
+        startable = queue.waiting or any(arm_of(run) in queue.made for run in queue.parked)
+        assert len(work) == places or not startable
+        for item in [item for item in work if work[item] == 1]:
+            del work[item]
+            queue.phi_made(item[1]) if item[0] == "phi" else queue.run_ended()
+        work = {item: ticks - 1 for item, ticks in work.items()}
+    assert handed == plan

@@ -24,6 +24,7 @@ from .chain import MAKES, chain_for, reads, run_stage
 from .demos import holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
 from .sweep_plan import SweepPlan, SweepRun, plan_from_dict
+from .sweep_queue import RunQueue, arm_of
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -153,30 +154,36 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
-        phi: dict = {}  # plan.phis: (task, seed, embedding arm) -> its φ, made when the first run of the arm is handed to Ray
-        # Ray starts ready tasks in no set order: hand it only as many runs as its CPUs hold, in the plan's order
-        at_once = max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads)
-        waiting, pending = list(plan.runs), {}
+        queue = RunQueue(list(plan.runs), places=max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads))
+        phi: dict = {}  # plan.phis: (task, seed, embedding arm) -> its φ, started when the first run of the arm is handed out
+        making: dict = {}  # a φ in training -> its arm
+        pending: dict = {}  # a run given to Ray -> the run
         status = {r.label: "queued" for r in plan.runs}
         failures: list[str] = []
         shown: dict[str, str] = {}
-        while waiting or pending:
-            while waiting and len(pending) < at_once:
-                r = waiting.pop(0)
-                shared = (r.task, r.seed, r.kind)
-                if shared not in phi:  # the arm's other methods wait for it (Ray holds no CPU for a task whose input is not ready)
-                    phi[shared] = embed_remote.remote(root, plan_dict, *shared, demos[r.task], data[(r.task, r.seed)])
-                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method, phi[shared])] = r
-            done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=poll_seconds)
+        while queue.unfinished():
+            phis, runs = queue.take()
+            for task, seed, kind in phis:
+                phi[task, seed, kind] = embed_remote.remote(root, plan_dict, task, seed, kind, demos[task], data[(task, seed)])
+                making[phi[task, seed, kind]] = (task, seed, kind)
+            for r in runs:
+                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method,
+                                   phi[arm_of(r)])] = r
+            watched = [*pending, *making]
+            done, _ = ray.wait(watched, num_returns=len(watched), timeout=poll_seconds)
             for ref in done:
+                if ref in making:  # a φ made (or failed: its runs fail with its error when they read it)
+                    queue.phi_made(making.pop(ref))
+                    continue
                 finished = pending.pop(ref)
+                queue.run_ended()
                 try:
                     status[finished.label] = f"done, normalized score {ray.get(ref)['normalized_score']:.1f}"
                 except Exception as exc:  # a run's failure is reported, the others go on
                     cause = getattr(exc, "cause", None) or exc
                     status[finished.label] = f"failed: {cause}"
                     failures.append(f"{finished.label}: {cause}")
-            for unfinished in [*pending.values(), *waiting]:
+            for unfinished in [*pending.values(), *queue.parked, *queue.waiting]:
                 status[unfinished.label] = _live_status(store, plan, unfinished) or "queued"
             if on_status is not None and status != shown:
                 on_status(dict(status))
