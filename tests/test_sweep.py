@@ -336,23 +336,23 @@ def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(sto
 
     raw = tomllib.loads((PLANS / "smoke.toml").read_text()) | {"threads": threads}
     plan = plan_from_dict(raw, "test plan")
-    started, running = [], set()
+    started, working = [], []  # working: the runs and φs handed to Ray, oldest first
 
-    def remote(num_cpus, max_retries=3):  # a run's task finishes when the driver next waits, first started first finished
+    def remote(num_cpus, max_retries=3):  # a run's or φ's task finishes when the driver next waits, first started first finished
         def wrap(function):
             def submit(*args):
                 task = object()
-                if function is sweep.run_task:
-                    started.append(args[2:5])
-                    running.add(task)
-                    assert len(running) <= at_once, f"{len(running)} runs handed to Ray at once on 2 CPUs"
+                if function in (sweep.run_task, sweep.embed_task):
+                    started.extend([args[2:5]] if function is sweep.run_task else [])
+                    working.append(task)
+                    assert len(working) <= at_once, f"{len(working)} runs and φs handed to Ray at once on 2 CPUs"
                 return task
             return types.SimpleNamespace(remote=submit)
         return wrap
 
     def wait(tasks, num_returns, timeout):
-        oldest = next(task for task in tasks if task in running)
-        running.discard(oldest)
+        oldest = next(task for task in working if task in tasks)
+        working.remove(oldest)
         return [oldest], [task for task in tasks if task is not oldest]
 
     fake_ray = types.SimpleNamespace(init=lambda **kwargs: None, shutdown=lambda: None, remote=remote, wait=wait,
