@@ -140,12 +140,14 @@ embeddings = ["identity"]
 
 
 # each shipped plan's runs as 45caa73 (before plans named methods) recorded them, less the settings a run does not read
-# (other methods' and embedding kinds' sections: settings.section's used_when): every artifact name and stage config
+# (other methods' and embedding kinds' sections: settings.section's used_when): every artifact name and stage config.
+# pointmaze-noise's noise arms now read one φ per embedding kind (SweepPlan.phi_of): its hash with the φ names each arm
+# had before (<arm>) is 45caa73's, 70cbe3ed1c58cb2e; nothing else changed
 FINGERPRINTS = {
     "halfcheetah-diagnose.toml": "2954a2c589f5890a", "halfcheetah-screen-protect.toml": "d4aad4fc9cdbfde1",
     "halfcheetah-screen.toml": "f0e0e92c3ad2deca", "hopper-1m-identity.toml": "69359d4bedb4e1bd", "hopper-1m-target.toml": "ec6edde7c2ba9985",
     "hopper-300k.toml": "af7d6c1807922752", "mujoco-table.toml": "0f72a80faf874dc9", "paper-table.toml": "e1fafc1464e53e82",
-    "paper.toml": "1f4f6a9da7bd33d6", "pointmaze-noise.toml": "70cbe3ed1c58cb2e", "smoke.toml": "3b8a39f3f374f11e",
+    "paper.toml": "1f4f6a9da7bd33d6", "pointmaze-noise.toml": "30f871ba00deae65", "smoke.toml": "3b8a39f3f374f11e",
 }
 
 
@@ -325,25 +327,22 @@ def test_an_imitating_run_says_its_pace_and_the_time_left(store):
     assert _live_status(store, plan, run) == "imitating: step 100000 of 1000000, normalized score 10.0, 100 env-steps/s, ~2.5 h to go"
 
 
-@pytest.mark.parametrize("threads, at_once", [(1, 2), (2, 1)])
-def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(store, monkeypatch, threads, at_once):
+def _fake_ray(monkeypatch, at_once: int) -> list:
+    """Ray as the driver sees it on 2 CPUs: a run's or φ's task finishes when the driver next waits, first started
+    first finished, and never more than ``at_once`` work at once. Returns what was handed to Ray: (function, args, task)."""
     import sys
-    import tomllib
     import types
 
     from lwail_cli.stages import sweep
-    from lwail_cli.stages.sweep_plan import plan_from_dict
 
-    raw = tomllib.loads((PLANS / "smoke.toml").read_text()) | {"threads": threads}
-    plan = plan_from_dict(raw, "test plan")
-    started, working = [], []  # working: the runs and φs handed to Ray, oldest first
+    handed, working = [], []  # working: the runs and φs at work, oldest first
 
-    def remote(num_cpus, max_retries=3):  # a run's or φ's task finishes when the driver next waits, first started first finished
+    def remote(num_cpus, max_retries=3):
         def wrap(function):
             def submit(*args):
                 task = object()
+                handed.append((function, args, task))
                 if function in (sweep.run_task, sweep.embed_task):
-                    started.extend([args[2:5]] if function is sweep.run_task else [])
                     working.append(task)
                     assert len(working) <= at_once, f"{len(working)} runs and φs handed to Ray at once on 2 CPUs"
                 return task
@@ -359,8 +358,40 @@ def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(sto
                                      cluster_resources=lambda: {"CPU": 2.0}, get=lambda task: {"normalized_score": 1.0})
     monkeypatch.setitem(sys.modules, "ray", fake_ray)
     monkeypatch.setattr(sweep.os, "cpu_count", lambda: 2)
+    return handed
+
+
+@pytest.mark.parametrize("threads, at_once", [(1, 2), (2, 1)])
+def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(store, monkeypatch, threads, at_once):
+    import tomllib
+
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    raw = tomllib.loads((PLANS / "smoke.toml").read_text()) | {"threads": threads}
+    plan = plan_from_dict(raw, "test plan")
+    handed = _fake_ray(monkeypatch, at_once)
     assert sweep.run_sweep(store, plan=plan, poll_seconds=0) == []
+    started = [args[2:5] for function, args, _ in handed if function is sweep.run_task]
     assert started == [(run.task, run.seed, run.kind) for run in plan.runs] and len(started) == 6
+
+
+def test_the_arms_of_an_axis_that_does_not_reach_phi_imitate_on_one_phi_made_once(store, monkeypatch):
+    """The noise table's arms differ only in the imitation's start-state noise: per embedding kind one φ is trained,
+    named after the first arm, and its three runs are handed that φ."""
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import read_plan
+
+    plan = read_plan(PLANS / "pointmaze-noise.toml")
+    task = "PointMazeMedium-v0"
+    assert plan.phis == [(task, 0, "icvf-noise0.0"), (task, 0, "identity-noise0.0")]
+    assert {plan.names(run)["embedding"] for run in plan.runs if plan.embedding_kind(run.kind) == "icvf"} == {"pointmaze-noise-pointmazemedium-v0-s0-icvf-noise0.0"}
+    handed = _fake_ray(monkeypatch, at_once=2)
+    assert sweep.run_sweep(store, plan=plan, poll_seconds=0) == []
+    phis = {args[4]: phi for function, args, phi in handed if function is sweep.embed_task}
+    assert list(phis) == ["icvf-noise0.0", "identity-noise0.0"]
+    runs = {args[4]: args[-1] for function, args, _ in handed if function is sweep.run_task}  # each run's arm -> the φ it was handed
+    assert runs == {f"{kind}-noise{noise}": phis[f"{kind}-noise0.0"] for kind in ("icvf", "identity") for noise in ("0.0", "0.2", "0.5")}
 
 
 def test_the_queue_trains_an_arms_phi_on_one_core_while_the_other_works_and_hands_runs_out_in_the_plans_order():

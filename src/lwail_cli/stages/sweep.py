@@ -2,7 +2,8 @@
 
 A plan (``sweep_plan.py``) names the grid and each stage's ``--set`` overrides. Stages that several runs share are
 made once: a task's bundled demos, the random data set I of a task and seed (read by every arm of that seed), and
-the φ of a task, seed and embedding arm (read by every method of that arm). Every artifact is named after the sweep, and each finished stage is recorded in the sweep's ledger
+the φ of a task, seed and embedding arm (read by every method of that arm, and by every arm whose pre-training config
+is the same). Every artifact is named after the sweep, and each finished stage is recorded in the sweep's ledger
 (in the run area, ``.runs/sweep/``) under a fingerprint of its stage, name, config, seed and parents: a restarted
 sweep skips what is done (its artifact still there and intact, and for bundled demos, still today's bundle) and
 resumes a killed long stage (``pretrain-icvf``, ``imitate``) from its checkpoint.
@@ -24,7 +25,7 @@ from .chain import MAKES, chain_for, reads, run_stage
 from .demos import holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
 from .sweep_plan import SweepPlan, SweepRun, plan_from_dict
-from .sweep_queue import RunQueue, arm_of
+from .sweep_queue import RunQueue
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -70,9 +71,9 @@ def collect_task(root: str, plan_dict: dict, task: str, seed: int) -> str:
 
 
 def embed_task(root: str, plan_dict: dict, task: str, seed: int, kind: str, demos_ref: str, data_ref: str) -> str:
-    """The φ of a task, seed and embedding arm, shared by the runs of every method of that arm (its ref returned)."""
+    """The φ of a task, seed and φ arm, shared by the runs of every method of every arm that reads it (its ref returned)."""
     store, plan = _worker(root, plan_dict)
-    waiting = [plan.names(run)["policy"] for run in plan.runs if (run.task, run.seed, run.kind) == (task, seed, kind)]
+    waiting = [plan.names(run)["policy"] for run in plan.runs if plan.phi_of(run) == (task, seed, kind)]
     for run_name in waiting:
         store.runs.set_sweep_status(plan.name, run_name, STATUS["pretrain-icvf"])
     made = {"demos": store.resolve(demos_ref, "demos"), "dataset": store.resolve(data_ref, "dataset")}
@@ -154,8 +155,8 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
         data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
-        queue = RunQueue(list(plan.runs), places=max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads))
-        phi: dict = {}  # plan.phis: (task, seed, embedding arm) -> its φ, started when the first run of the arm is handed out
+        queue = RunQueue(list(plan.runs), places=max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads), phi_of=plan.phi_of)
+        phi: dict = {}  # plan.phis: (task, seed, φ arm) -> its φ, started when the first run reading it is handed out
         making: dict = {}  # a φ in training -> its arm
         pending: dict = {}  # a run given to Ray -> the run
         status = {r.label: "queued" for r in plan.runs}
@@ -168,7 +169,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
                 making[phi[task, seed, kind]] = (task, seed, kind)
             for r in runs:
                 pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method,
-                                   phi[arm_of(r)])] = r
+                                   phi[plan.phi_of(r)])] = r
             watched = [*pending, *making]
             done, _ = ray.wait(watched, num_returns=len(watched), timeout=poll_seconds)
             for ref in done:

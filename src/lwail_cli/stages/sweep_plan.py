@@ -9,6 +9,8 @@ and arm; ``[labels]`` gives an arm the public name the report's tables and figur
 An ``[axis]`` table varies one setting as the grid varies seeds: ``setting = "env.start_noise"``, ``values = [0.0,
 0.5]`` (and a short ``name``, the field's by default) make each arm one arm per value, ``<arm>-<name><value>``, the
 setting given to every stage after collect whose config holds it (data set I stays shared by the arms of a seed).
+Arms whose pre-training configs are equal read one φ, named after the first of them (``SweepPlan.phi_of``): an axis
+that does not reach φ, such as the start-state noise, varies the imitation on the same φ.
 ``methods`` (``["lwail"]`` where not given) varies the imitation method the same way: every method of a task, seed and
 arm imitates on the same data set I and φ (made once, read by all), and only a method that reads a discriminator warms
 one up. A plan of LWAIL alone names its runs after their arm; one with other methods, ``<arm>-<method>``.
@@ -18,8 +20,10 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
+from .. import config as cfg
 from ..embeddings import EMBEDDINGS
 from ..errors import LwailError
 from ..methods import METHODS
@@ -74,8 +78,22 @@ class SweepPlan:
 
     @property
     def phis(self) -> list[tuple[str, int, str]]:
-        """The (task, seed, embedding arm) of each φ, shared by the runs of every method of that arm."""
-        return list(dict.fromkeys((run.task, run.seed, run.kind) for run in self.runs))
+        """The (task, seed, φ arm) of each φ, shared by the runs of every method of every arm that reads it."""
+        return list(dict.fromkeys(self.phi_of(run) for run in self.runs))
+
+    def phi_of(self, run: SweepRun) -> tuple[str, int, str]:
+        """The (task, seed, φ arm) of the φ the run reads."""
+        return run.task, run.seed, self._phi_arms[run.kind]
+
+    @cached_property
+    def _phi_arms(self) -> dict[str, str]:
+        """Each arm -> the plan's first arm with the same pre-training config, whose φ it reads: arms that differ only
+        after φ (an [axis] over env.start_noise, a critic ablation) imitate on one φ, made once, so they differ by
+        nothing else."""
+        first: dict[str, str] = {}
+        for arm in self.kinds:
+            first.setdefault(repr(cfg.to_dict(self.config("pretrain-icvf", arm))), arm)
+        return {arm: first[repr(cfg.to_dict(self.config("pretrain-icvf", arm)))] for arm in self.kinds}
 
     def label(self, arm: str) -> str:
         return self.labels.get(arm, arm)
@@ -108,7 +126,7 @@ class SweepPlan:
     def names(self, run: SweepRun) -> dict[str, str]:
         """Each artifact's name, by kind."""
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
-        return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": f"{base}-{run.kind}",
+        return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": f"{base}-{self._phi_arms[run.kind]}",
                 "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.arm}"}
 
     def to_dict(self) -> dict:
@@ -125,7 +143,9 @@ def grid_lines(plan: SweepPlan) -> list[str]:
     lines = [f"[set] {stage}: {', '.join(assignments)}" for stage, assignments in plan.overrides.items()]
     for run in plan.runs:
         own = "; ".join(f"{stage}: {', '.join(assignments)}" for stage, assignments in plan.variants.get(run.kind, {}).items() if stage != "kind")
-        lines.append(f"{run.label} ({plan.embedding_kind(run.kind)}, {run.imitation})" + (f"  {own}" if own else ""))
+        phi = plan.phi_of(run)[2]
+        shared = f", the φ of {phi}" if phi != run.kind else ""
+        lines.append(f"{run.label} ({plan.embedding_kind(run.kind)}{shared}, {run.imitation})" + (f"  {own}" if own else ""))
     return lines
 
 

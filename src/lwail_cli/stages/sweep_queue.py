@@ -7,13 +7,15 @@ No Ray here: the driver (``sweep.run_sweep``) asks what to start and says what e
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 from .sweep_grid import SweepRun
 
-Arm = tuple[str, int, str]  # (task, seed, embedding arm): what shares one φ
+Arm = tuple[str, int, str]  # (task, seed, φ arm): what shares one φ
 
 
 def arm_of(run: SweepRun) -> Arm:
+    """Each embedding arm its own φ (a plan's ``phi_of`` lets arms that differ only after φ share one)."""
     return run.task, run.seed, run.kind
 
 
@@ -21,6 +23,7 @@ def arm_of(run: SweepRun) -> Arm:
 class RunQueue:
     waiting: list[SweepRun]  # not handed out yet, in the plan's order
     places: int  # runs and φs at once: Ray's CPUs over each one's threads
+    phi_of: Callable[[SweepRun], Arm] = arm_of  # the φ a run reads
     parked: list[SweepRun] = field(default_factory=list)  # handed out, waiting for their arm's φ
     training: set[Arm] = field(default_factory=set)  # arms whose φ is being made
     made: set[Arm] = field(default_factory=set)  # arms whose φ is made (or failed: its runs then fail with its error)
@@ -34,7 +37,7 @@ class RunQueue:
         next runs while a place is free (a run whose φ is not made is parked, starting that φ if nothing has)."""
         phis: list[Arm] = []
         runs: list[SweepRun] = []
-        for run in [run for run in self.parked if arm_of(run) in self.made]:
+        for run in [run for run in self.parked if self.phi_of(run) in self.made]:
             if self.busy() >= self.places:
                 break
             self.parked.remove(run)
@@ -42,7 +45,7 @@ class RunQueue:
             self.running += 1
         while self.waiting and self.busy() < self.places:
             run = self.waiting.pop(0)
-            arm = arm_of(run)
+            arm = self.phi_of(run)
             if arm in self.made:
                 runs.append(run)
                 self.running += 1
