@@ -92,7 +92,7 @@ def test_the_report_is_rebuilt_from_committed_curve_files(cli, tmp_path):
 
 @pytest.mark.parametrize("setup, message", [
     (lambda folder: None, "holds no curve of plan tiny that reached its last step (looked for tiny_<task>_<arm>_seed<S>.csv"),
-    (lambda folder: _write_curve(folder / "tiny_invertedpendulum-v5_icvf_seed0.csv", [1.0] * 5), "holds no curve of plan tiny"),
+    (lambda folder: _write_curve(folder / "other_invertedpendulum-v5_icvf_seed0.csv", [1.0] * 10), "holds no curve of plan tiny"),
 ])
 def test_a_folder_without_the_plans_curves_is_one_clear_line(cli, tmp_path, setup, message):
     plan, curves = tmp_path / "tiny.toml", tmp_path / "results"
@@ -102,6 +102,52 @@ def test_a_folder_without_the_plans_curves_is_one_clear_line(cli, tmp_path, setu
     result = cli("report", plan, "--curves", curves)
     assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output, result.output
     assert cli("report", "tiny", "--curves", curves).output.count("give the plan file") == 1
+
+
+RUNNING_PLAN = PLAN.replace("seeds = [0, 1]", "seeds = [0]").replace("train.steps=1000", "train.steps=10000")
+
+
+def _write_running_curve(path: Path, evaluations: int):
+    """Evaluations every 500 steps scoring 1, 2, 3, ... (returns 10 x the score)."""
+    scores = [float(i) for i in range(1, evaluations + 1)]
+    pd.DataFrame({"step": [500 * i for i in range(1, evaluations + 1)], "return_mean": [10.0 * s for s in scores],
+                  "normalized_score": scores}).to_csv(path, index=False)
+
+
+@pytest.mark.parametrize("finished", [True, False])
+def test_an_unfinished_run_is_shown_where_its_furthest_curve_stands_and_never_counted(cli, tmp_path, finished):
+    plan, curves = tmp_path / "tiny.toml", tmp_path / "results"
+    plan.write_text(RUNNING_PLAN)
+    curves.mkdir()
+    if finished:
+        _write_running_curve(curves / "tiny_invertedpendulum-v5_icvf_seed0.csv", 20)
+    _write_running_curve(curves / "tiny_invertedpendulum-v5_identity_seed0_to3k.csv", 6)
+    _write_running_curve(curves / "tiny_invertedpendulum-v5_identity_seed0_to5k.csv", 10)  # the same run, further
+    result = cli("report", plan, "--curves", curves, "--out", tmp_path / "figures")
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    # to step 5,000 of 10,000: latest 10; recent = the evaluations after 4,000 (the last 10% of the plan's steps): 9.5,
+    # 95 of the bundled expert's 1,000 = 9.5%; no Wasserstein estimate: no probe
+    assert "| InvertedPendulum-v5 | no embedding | 0 | 5k of 10k | 10.0 | 9.5 | 9.5 | 10.0 (5k) | — | `tiny_invertedpendulum-v5_identity_seed0_to5k.csv` |" in lines
+    assert sum("| no embedding |" in line for line in lines) == 1  # in no statistics table
+    assert ("| InvertedPendulum-v5 | icvf | 1 | 19.5 | 19.5 | 20.0 |" in result.output) is finished  # the finished run: reported as before
+    assert ("reached its last step" in result.output) is not finished
+
+
+def test_a_running_sweeps_runs_are_shown_from_the_store_before_any_has_finished(cli, store, tmp_path):
+    from lwail_cli.stages.sweep_plan import read_plan
+
+    plan_file = tmp_path / "tiny.toml"
+    plan_file.write_text(RUNNING_PLAN)
+    plan = read_plan(plan_file)
+    name = plan.names(plan.runs[0])["policy"]
+    rows = [{"step": 500 * i, "return_mean": 10.0 * i, "normalized_score": float(i), "wasserstein_estimate": 1.99} for i in range(1, 5)]
+    store.runs.write_run_log("policy", name, "learning_curve.csv", rows)
+    result = cli("report", plan_file)
+    assert result.exit_code == 0, result.output
+    assert "no run of sweep tiny has finished yet: no report written" in result.output
+    # no demos in the store: no % of our expert; at 2k of 10k the critic is not judged yet (the probe reads 150k)
+    assert "| InvertedPendulum-v5 | icvf | 0 | 2k of 10k | 4.0 | 3.5 | — | 4.0 (2k) | — |" in result.output
 
 
 def test_a_plans_labels_name_its_arms_and_are_checked(tmp_path):

@@ -18,6 +18,7 @@ from ..stages import curve as curve_stage
 from ..stages import evaluate as evaluate_stage
 from ..stages import export as export_stage
 from ..stages import online as online_stage
+from ..stages import progress
 from ..stages import quickstart as quickstart_stage
 from ..stages import report as report_stage
 from ..stages import reward_map as reward_map_stage
@@ -168,22 +169,39 @@ def report(
     out: Optional[Path] = typer.Option(None, "--out", metavar="DIR", help="With --curves: the folder for the figures (default: the --curves folder)."),
 ) -> None:
     """A sweep's report: per task and arm over seeds mean ± std, IQM with a 95% bootstrap interval and % of our
-    expert; across tasks the IQM and a performance profile; curves. From the store, or with --curves from committed
-    curve files alone."""
+    expert; across tasks the IQM and a performance profile; curves; then where each unfinished run stands. From the
+    store, or with --curves from committed curve files alone (a running run's as <...>_seed<S>_to<N>k.csv)."""
     if curves is not None:
         if not Path(sweep_ref).is_file():
             raise LwailError(f"--curves reads no store: give the plan file (e.g. plans/paper-table.toml), not {sweep_ref!r}")
-        table, written = report_stage.report_from_curves(plan=read_plan(Path(sweep_ref)), folder=curves, out=out or curves)
+        plan = read_plan(Path(sweep_ref))
+        unfinished = progress.unfinished_in_folder(plan=plan, folder=curves)
+        try:
+            table, written = report_stage.report_from_curves(plan=plan, folder=curves, out=out or curves)
+        except report_stage.NothingFinished as nothing:
+            if not unfinished:
+                raise
+            table, written = f"{nothing}\n", []
         for path in written:
             typer.echo(f"wrote {path}")
         typer.echo(table)
+        if unfinished:
+            typer.echo(progress.markdown(plan, unfinished))
         return
     s = store()
     if Path(sweep_ref).is_file():
         plan = read_plan(Path(sweep_ref))
     else:
         plan = plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")
-    _say_report(report_stage.report(s, plan=plan))
+    unfinished = progress.unfinished_in_store(s, plan=plan)
+    try:
+        _say_report(report_stage.report(s, plan=plan))
+    except report_stage.NothingFinished as nothing:
+        if not unfinished:
+            raise
+        typer.echo(f"{nothing}: no report written")
+    if unfinished:
+        typer.echo(progress.markdown(plan, unfinished))
 
 
 def _say_report(artifact) -> None:

@@ -30,6 +30,10 @@ if TYPE_CHECKING:
     from .sweep_plan import SweepPlan, SweepRun
 
 EXPERT_PCT = "_expert_pct"  # the suffix of a figure given as % of the expert's return instead of normalized
+class NothingFinished(LwailError):
+    """No run of the plan has reached its last step: there is nothing to report yet (`progress` says where they stand)."""
+
+
 SCORE = "last_10pct_mean"  # the run's score the IQM, its interval and the performance profile are of ("the last 100k")
 
 
@@ -53,7 +57,7 @@ def report(store: Store, *, plan: SweepPlan) -> Artifact:
         curves.append(RunCurve(run, curve, _demos_return(store, policy), policy.ref))
         policies.append(policy)
     if not curves:
-        raise LwailError(f"no run of sweep {plan.name} has finished yet")
+        raise NothingFinished(f"no run of sweep {plan.name} has finished yet")
     runs, summary, across = tables(plan, curves)
     with store.create("report", plan.name, env=None, config=plan.to_dict(), seed=None, parents=policies) as writer:
         runs.to_csv(writer.path("runs.csv"), index=False)
@@ -79,7 +83,7 @@ def report_from_curves(*, plan: SweepPlan, folder: Path, out: Path) -> tuple[str
                 curves.append(RunCurve(run, curve, float(experts.get(run.task, {}).get("mean_return", float("nan"))), str(path)))
     if not curves:
         example = curve_file_name(plan, plan.runs[0])
-        raise LwailError(f"{folder} holds no curve of plan {plan.name} that reached its last step "
+        raise NothingFinished(f"{folder} holds no curve of plan {plan.name} that reached its last step "
                          f"(looked for {plan.name}_<task>_<arm>_seed<S>.csv, e.g. {example})")
     runs, summary, across = tables(plan, curves)
     Path(out).mkdir(parents=True, exist_ok=True)
@@ -202,12 +206,12 @@ def markdown(runs: pd.DataFrame, summary: pd.DataFrame, across: pd.DataFrame) ->
         r = row._asdict()
         normalized.append(
             f"| {row.task} | {row.label} | {row.seeds} | {_pm(r, SCORE)} | {_ci(r, SCORE)} | {_pm(r, 'at_end')} | "
-            f"{_pm(r, 'second_half_mean')} | {_number(row.second_half_min_lowest)} | {row.wall_time_s / 60:.0f} min, "
+            f"{_pm(r, 'second_half_mean')} | {figure_text(row.second_half_min_lowest)} | {row.wall_time_s / 60:.0f} min, "
             f"{row.env_steps_per_s:.0f} | {_pm(r, 'paper')} |")
         pct = SCORE + EXPERT_PCT
         in_pct.append(
             f"| {row.task} | {row.label} | {row.seeds} | {'—' if pd.isna(row.expert_return) else f'{row.expert_return:,.0f}'} | "
-            f"{_pm(r, pct)} | {_ci(r, pct)} | {_number(r[pct + '_lowest'])} | {_pm(r, 'at_end' + EXPERT_PCT)} | "
+            f"{_pm(r, pct)} | {_ci(r, pct)} | {figure_text(r[pct + '_lowest'])} | {_pm(r, 'at_end' + EXPERT_PCT)} | "
             f"{_pm(r, 'second_half_mean' + EXPERT_PCT)} |")
     aggregate = [f"**Across tasks**: the IQM of the {last} over every run of every task, with its {statistics.CONFIDENCE:.0%} "
                  "stratified-bootstrap interval (each task's seeds resampled on their own; — where a task has one seed)", "",
@@ -224,14 +228,15 @@ def markdown(runs: pd.DataFrame, summary: pd.DataFrame, across: pd.DataFrame) ->
     for row in runs.itertuples(index=False):
         falls = "—" if pd.isna(row.falls_after_half) else f"{int(row.falls_after_half)} of {row.evaluations_after_half}"
         per_run.append(
-            f"| {row.task} | {row.label} | {row.seed} | {_number(row.last_10pct_mean)} | {_number(row.at_end)} | "
-            f"{_number(row.second_half_mean)} | {_number(row.second_half_min)} ({_step(row.second_half_min_step)}) | "
-            f"{_number(row.best)} ({_step(row.best_step)}) | {falls} | {_number(row.last_10pct_mean_expert_pct)} | "
+            f"| {row.task} | {row.label} | {row.seed} | {figure_text(row.last_10pct_mean)} | {figure_text(row.at_end)} | "
+            f"{figure_text(row.second_half_mean)} | {figure_text(row.second_half_min)} ({_step(row.second_half_min_step)}) | "
+            f"{figure_text(row.best)} ({_step(row.best_step)}) | {falls} | {figure_text(row.last_10pct_mean_expert_pct)} | "
             f"{row.wall_time_s / 60:.0f} min, {row.env_steps_per_s:.0f} |")
     return "\n\n".join("\n".join(table) for table in (normalized, in_pct, aggregate, per_run)) + "\n"
 
 
-def _number(value: float) -> str:
+def figure_text(value: float) -> str:
+    """One figure of a table, a dash where there is none."""
     return "—" if pd.isna(value) else f"{value:.1f}"
 
 
