@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import LwailError
 from ..learning_curve import LAST_FRACTION, SATURATION_STEP, WASSERSTEIN, saturated_critic
-from ..loaders import read_curve, read_curve_file
+from ..loaders import live_curve, read_curve_file
 from .report import RunCurve, curve_file_name, figure_text, run_steps, step_label
 from .shared import bundled_experts
 
@@ -34,12 +34,10 @@ def unfinished_in_store(store: Store, *, plan: SweepPlan) -> list[RunCurve]:
         name = plan.names(run)["policy"]
         if _finished(store, name):
             continue  # in the report's tables
-        try:
-            curve, source = read_curve(store, ref=name)
-        except LwailError:
-            continue  # not started, or no evaluation yet
-        if not curve.empty:
-            partial.append(RunCurve(run, curve, _demos_return(store, plan, run), source))
+        live = live_curve(store, name)
+        curve = None if live is None else read_curve_file(live)
+        if curve is not None and not curve.empty:
+            partial.append(RunCurve(run, curve, _demos_return(store, plan, run), name))
     return partial
 
 
@@ -92,7 +90,7 @@ def row(plan: SweepPlan, entry: RunCurve) -> dict:
         "latest": float(score.iloc[-1]), "recent_mean": float(recent.mean()),
         "recent_expert_pct": float(100 * curve["return_mean"][recent.index].mean() / entry.expert_return),
         "best": float("nan") if best is None else float(score[best]), "best_step": float("nan") if best is None else float(curve["step"][best]),
-        "probe": probe, "source": Path(entry.source).name if Path(entry.source).is_file() else entry.source,
+        "probe": probe, "source": Path(entry.source).name,  # a file's name, or a run's in the store
     }
 
 
@@ -103,7 +101,7 @@ def markdown(plan: SweepPlan, partial: list[RunCurve]) -> str:
     window = step_label(int(LAST_FRACTION * rows[0]["steps"])) if len({r["steps"] for r in rows}) == 1 else "10% of the steps"
     lines = [f"**Unfinished runs so far** (where each stands, not a result: none enters the report's statistics; *recent*: the mean "
              f"of the evaluations over the last {window} it has run; *critic at 150k*: the early probe (docs/algorithm.md) of a saturated critic)", "",
-             "| task | arm | seed | curve to | latest | recent | recent, % of our expert | best (step) | critic at 150k | curve |",
+             "| task | arm | seed | curve to | latest | recent | recent, % of our expert | best (step) | critic at 150k | curve or run |",
              "| --- " * 10 + "|"]
     for r in rows:
         lines.append(f"| {r['task']} | {r['label']} | {r['seed']} | {step_label(r['reached'])} of {step_label(r['steps'])} | "
