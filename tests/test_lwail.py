@@ -212,7 +212,8 @@ def test_lwail_imitates_inverted_pendulum_from_one_state_only_trajectory(store):
     assert result["normalized_score"] > 80 and "bundled-demos" in result["reference"]
 
 
-def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
+def _imitation_stages(store) -> dict:
+    """A tiny LWAIL imitation on InvertedPendulum (identity φ): 1,500 steps, checkpoints every 500."""
     device = torch.device("cpu")
     bundled = demos.import_bundled_demos(store, env_id="InvertedPendulum-v5")
     data = collect.collect(store, env_id="InvertedPendulum-v5", config=cfg.CollectConfig(transitions=500), seed=0)
@@ -225,7 +226,12 @@ def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
         update_every=400,
         update_steps=3,
     )
-    stages = dict(env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config, seed=0, device=device)
+    return dict(env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config, seed=0, device=device)
+
+
+def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
+    stages = _imitation_stages(store)
+    config = stages["config"]
     straight = imitate.imitate(store, name="straight", **stages)
 
     def kill(step, shown):
@@ -242,6 +248,46 @@ def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
     assert pd.read_csv(observed.file("learning_curve.csv"))["step"].tolist() == [750, 1000, 1250, 1500]
     for name in ("actor.safetensors", "critic.safetensors"):
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes() == observed.file(name).read_bytes()
+
+
+@pytest.mark.parametrize("ask", ["lwail pause", "SIGTERM"])
+def test_a_run_asked_to_pause_checkpoints_there_and_resumes_bit_for_bit(store, ask):
+    import os
+    import signal
+
+    from lwail_cli.errors import RunPaused
+
+    stages = _imitation_stages(store)
+    straight = imitate.imitate(store, name="straight", **stages)
+
+    def pause_at_600(step, shown):
+        if step == 600:  # between two checkpoints (every 500): what a kill would lose, a pause keeps
+            store.runs.request_pause("policy", "paused") if ask == "lwail pause" else os.kill(os.getpid(), signal.SIGTERM)
+
+    handler = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(RunPaused, match="paused at step 600 as asked, its checkpoint kept"):
+        imitate.imitate(store, name="paused", on_progress=pause_at_600, **stages)
+    assert signal.getsignal(signal.SIGTERM) is handler  # the run's own handler is gone with it
+    assert store.runs.load_checkpoint("policy", "paused")["run"]["step"] == 600
+    resumed = imitate.imitate(store, name="paused", resume=True, **stages)  # the request was taken: it runs to the end
+    for name in ("actor.safetensors", "critic.safetensors"):
+        assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
+    pd.testing.assert_frame_equal(*(pd.read_csv(p.file("learning_curve.csv")).drop(columns="wall_time") for p in (straight, resumed)))
+
+
+def test_a_pause_asked_of_a_process_that_was_then_killed_does_not_stop_its_resumed_run(store, cli):
+    stages = _imitation_stages(store)
+
+    def ask_then_die(step, shown):
+        if step == 600:
+            store.runs.request_pause("policy", "run")
+            raise Killed  # before the loop looks at the request
+
+    with pytest.raises(Killed):
+        imitate.imitate(store, name="run", on_progress=ask_then_die, **stages)
+    assert imitate.imitate(store, name="run", resume=True, **stages).metrics["env_steps"] == 1500
+    result = cli("pause", "run")  # finished: nothing to pause
+    assert result.exit_code == 1 and "no run of policy/run is in progress in this store" in result.output and "Traceback" not in result.output
 
 
 def test_resume_refuses_a_run_started_differently(store):

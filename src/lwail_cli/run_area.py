@@ -1,7 +1,7 @@
 """The run area, ``<store>/.runs/``: what runs in progress keep outside the versioned store.
 
-``.runs/<kind>/<name>/`` holds a run's lock, its checkpoint and the CSVs it logs while it trains (a killed run's stay
-for ``--resume``; a finished run's artifact is a new version of the store, and its folder goes).
+``.runs/<kind>/<name>/`` holds a run's lock, its checkpoint, the CSVs it logs while it trains and a pause asked of it
+(a killed or paused run's stay for ``--resume``; a finished run's artifact is a new version of the store, and its folder goes).
 ``.runs/sweep/<sweep>/`` holds a sweep's ledger of finished stages and what each of its runs is doing now. Every
 file here is replaced whole (``_replacing``), so a kill or a reader never finds half of one.
 """
@@ -20,6 +20,8 @@ from typing import IO, Iterator
 
 from .errors import LwailError
 from .names import check_name, parse_ref
+
+PAUSE_REQUEST = "pause"  # in a run's folder: `lwail pause` asks its process to checkpoint and stop
 
 
 class RunArea:
@@ -110,6 +112,23 @@ class RunArea:
     def clear_checkpoint(self, kind: str, name: str) -> None:
         shutil.rmtree(self._folder(kind, name), ignore_errors=True)
 
+    # ---------------------------------------------------------------- a pause asked of a run in progress
+    def request_pause(self, kind: str, name: str) -> None:
+        """Ask the process training ``kind/name`` (its lock's holder, alive) to checkpoint and stop (`lwail pause`)."""
+        folder = self._folder(kind, name)
+        holder = _holder(_read_small(folder / "lock"))
+        if holder is None or abandoned_by(*holder):
+            raise LwailError(f"no run of {kind}/{name} is in progress in this store (finished, killed or never started): nothing to pause")
+        (folder / PAUSE_REQUEST).touch()
+
+    def take_pause_request(self, kind: str, name: str) -> bool:
+        """Whether a pause was asked of ``kind/name``; the request is taken (a resumed run does not stop at once)."""
+        request = self._folder(kind, name) / PAUSE_REQUEST
+        if not request.exists():
+            return False
+        request.unlink(missing_ok=True)
+        return True
+
     def run_log(self, kind: str, name: str, filename: str) -> Path:
         """A CSV a run in progress (or a killed one) keeps beside its checkpoint."""
         return self._folder(kind, name) / filename
@@ -173,14 +192,20 @@ def _stale_lock(lock: Path, what: str) -> bytes | None:
     if not os.path.lexists(lock):
         return None
     held = _read_small(lock)
-    found = re.fullmatch(rb"(\S+) ([1-9][0-9]*)", held or b"")
-    if found is None:
+    holder = _holder(held)
+    if holder is None:
         raise LwailError(f"the lock {lock} of {what} is damaged (not 'host pid'); if no process is training {what}, delete it")
-    host, pid = found[1].decode(errors="replace"), int(found[2])
+    host, pid = holder
     if abandoned_by(host, pid):
         return held
     raise LwailError(f"{what} is being trained by process {pid} on {host}; wait for it, or choose another --name "
                      f"(if that process is gone, delete {lock})")
+
+
+def _holder(held: bytes | None) -> tuple[str, int] | None:
+    """The host and pid a lock's bytes name ('host pid'); None for no lock or a damaged one."""
+    found = re.fullmatch(rb"(\S+) ([1-9][0-9]*)", held or b"")
+    return None if found is None else (found[1].decode(errors="replace"), int(found[2]))
 
 
 def _alive(pid: int) -> bool:

@@ -8,8 +8,10 @@ settings declared ``resume_may_change`` (the budget, and how the run is logged, 
 
 from __future__ import annotations
 
+import signal
+import threading
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Iterator
 
 from . import config as cfg
@@ -26,6 +28,11 @@ class Run:
     name: str
     record: dict  # what made the run, saved in every checkpoint
     resume: dict | None  # the checkpoint the run continues from; None for a fresh run
+    terminated: threading.Event = field(default_factory=threading.Event)  # SIGTERM came while the run was open
+
+    def pause_requested(self) -> bool:
+        """Whether the run was asked to checkpoint and stop: SIGTERM to its process, or `lwail pause`."""
+        return self.terminated.is_set() or self.store.runs.take_pause_request(self.kind, self.name)
 
     def save_checkpoint(self, state: dict) -> None:
         self.store.runs.save_checkpoint(self.kind, self.name, {**state, "record": self.record})
@@ -50,8 +57,31 @@ def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, 
         state = store.runs.load_checkpoint(kind, name) if resume else None
         if state is not None:
             _refuse_another_run(kind, name, state["record"], record, cfg.resume_may_change(config_class))
-        yield Run(store, kind, name, record, state)
+        store.runs.take_pause_request(kind, name)  # asked of an earlier process of the run: not of this one
+        run = Run(store, kind, name, record, state)
+        with _pause_on_sigterm(run.terminated):
+            yield run
         store.runs.clear_checkpoint(kind, name)
+
+
+@contextmanager
+def _pause_on_sigterm(terminated: threading.Event) -> Iterator[None]:
+    """While the run is open, a first SIGTERM asks it to checkpoint and stop (where its loop next looks, within
+    ~100 steps) instead of killing it; a second one acts as it would have. Only the main thread may set a handler."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.getsignal(signal.SIGTERM)
+
+    def ask(signum, frame) -> None:
+        terminated.set()
+        signal.signal(signal.SIGTERM, before)
+
+    signal.signal(signal.SIGTERM, ask)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 def _refuse_another_run(kind: str, name: str, recorded: dict, record: dict, may_change: tuple[str, ...]) -> None:

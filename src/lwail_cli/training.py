@@ -18,6 +18,7 @@ import torch
 
 from . import learning_curve as curve
 from .envs import make_env
+from .errors import RunPaused
 from .resumable import EnvironmentState, NumpyGenerator, Stopwatch, capture, checkpoint_due, restore
 from .rollout import Policy, rollout
 from .seeds import stream_seeds
@@ -190,27 +191,30 @@ def train_td3(
     on_evaluation: Callable[[RunState], None] | None = None,
     progress_every: int = 500,
     start_noise: float = 0.0,
+    stop_requested: Callable[[], bool] | None = None,
 ) -> RunState:
     """Run TD3 up to ``train.steps`` env steps (from ``resume`` when given); returns the run's state. ``start_noise``:
-    the start-state noise of every episode, trained on and evaluated (``make_env``).
+    the start-state noise of every episode, trained on and evaluated (``make_env``); ``stop_requested``: ``online_loop``'s.
 
     Seed torch before building ``agent`` (and anything else random) for a reproducible run."""
     reward_model = reward_model or EnvironmentReward()
     learner = TD3OnReward(agent, reward_model, td3, train, env_id, seed, reference, start_noise)
     return online_loop(env_id, learner, buffer, train, seed, {"agent": agent, "reward_model": reward_model}, resume=resume,
                        on_progress=on_progress, on_checkpoint=on_checkpoint, on_evaluation=on_evaluation,
-                       progress_every=progress_every, start_noise=start_noise)
+                       progress_every=progress_every, start_noise=start_noise, stop_requested=stop_requested)
 
 
 def online_loop(
     env_id: str, learner: OnlineAgent, buffer: ReplayBuffer, train: TrainConfig, seed: int, parts: dict[str, Part], *,
     resume: dict | None = None, on_progress: Callable[[int, RunState], None] | None = None,
     on_checkpoint: Callable[[dict], None] | None = None, on_evaluation: Callable[[RunState], None] | None = None,
-    progress_every: int = 500, start_noise: float = 0.0,
+    progress_every: int = 500, start_noise: float = 0.0, stop_requested: Callable[[], bool] | None = None,
 ) -> RunState:
     """Play ``learner`` in the environment up to ``train.steps`` env steps, storing each transition in ``buffer``,
     evaluating every ``train.eval_every`` and checkpointing ``parts`` (with the buffer, the exploration generator and
-    the environment) every ``train.checkpoint_every``; from ``resume`` when given. Returns the run's state."""
+    the environment) every ``train.checkpoint_every``; from ``resume`` when given. Returns the run's state. Every
+    ``progress_every`` steps ``stop_requested`` is asked: when it says so the run checkpoints there and raises
+    ``RunPaused`` (a resume goes on from that step as from any checkpoint)."""
     env = make_env(env_id, start_noise=start_noise)
     online_seed = stream_seeds(seed, "online")[0]
     obs, _ = env.reset(seed=online_seed)
@@ -260,9 +264,12 @@ def online_loop(
                 evaluate_now()
             elif on_progress is not None and run.step % progress_every == 0:
                 on_progress(run.step, run)
-            if on_checkpoint is not None and checkpoint_due(run.step, train.checkpoint_every, train.steps):
+            stop = stop_requested is not None and run.step % progress_every == 0 and run.step < train.steps and stop_requested()
+            if on_checkpoint is not None and (stop or checkpoint_due(run.step, train.checkpoint_every, train.steps)):
                 run.wall_time = clock.elapsed()
                 on_checkpoint(capture(parts, run=run.__dict__.copy(), obs=torch.from_numpy(np.asarray(obs))))
+            if stop:
+                raise RunPaused(run.step)
         if not run.history or run.history[-1]["step"] != run.step:  # resumed with --steps at its checkpoint
             evaluate_now()
     finally:

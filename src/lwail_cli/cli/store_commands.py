@@ -1,10 +1,10 @@
-"""The commands that look into the store and the settings: ls, show, verify, defaults."""
+"""The commands that look into the store and the settings, and pause a run in it: ls, show, verify, defaults, pause."""
 
 from __future__ import annotations
 
 import json
 import textwrap
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -60,6 +60,16 @@ def verify(ref: Optional[str] = typer.Argument(None, metavar="REF", help="name, 
     typer.echo(f"{len(results)} artifact versions checked, {damaged} damaged")
     if damaged:
         raise typer.Exit(1)
+
+
+@command(app, "pause")
+def pause(names: List[str] = typer.Argument(..., metavar="RUN...", help="The name of an `imitate` or `expert train` run in progress (as `lwail ls` will list its policy), e.g. a sweep's <sweep>-<task>-s<seed>-<arm>.")) -> None:
+    """Ask runs in progress to checkpoint and stop within ~100 env steps, to free the machine without losing their
+    work: the same command with --resume (a sweep: the same `lwail sweep`) continues each bit for bit. SIGTERM to a
+    run's process does the same."""
+    for name in names:
+        store().runs.request_pause("policy", name)
+        typer.echo(f"asked {name} to checkpoint and stop")
 
 
 @command(app, "defaults")

@@ -66,6 +66,7 @@ class Session:
     on_evaluation: Callable[[RunState], None]
     on_progress: Callable[[int, RunState], None] | None
     progress_every: int
+    stop_requested: Callable[[], bool]  # asked every progress_every steps: checkpoint and stop (``training.online_loop``)
 
 
 @dataclass(frozen=True)

@@ -118,7 +118,8 @@ def train(inputs: Inputs, session: Session) -> Trained:
     buffer = ReplayBuffer(inputs.capacity, info.obs_dim, info.act_dim, session.device)
     state = online_loop(info.id, agent, buffer, config.train, session.seed, {"idm": agent.idm, "cloning": agent.cloning},
                         resume=session.resume, on_progress=session.on_progress, on_checkpoint=session.on_checkpoint,
-                        on_evaluation=session.on_evaluation, progress_every=session.progress_every, start_noise=config.env.start_noise)
+                        on_evaluation=session.on_evaluation, progress_every=session.progress_every, start_noise=config.env.start_noise,
+                        stop_requested=session.stop_requested)
     return Trained(state, agent.actor, agent.weights())
 
 

@@ -98,6 +98,7 @@ def train_policy(hooks: Session, *, config: cfg.ExpertConfig | cfg.ImitationConf
         hooks.info.id, agent, buffer, config.td3, config.train, hooks.seed, reward_model=reward_model, reference=hooks.reference,
         resume=hooks.resume, on_checkpoint=hooks.on_checkpoint, on_progress=hooks.on_progress,
         on_evaluation=hooks.on_evaluation, progress_every=hooks.progress_every, start_noise=config.env.start_noise,
+        stop_requested=hooks.stop_requested,
     )
     return TrainedPolicy(state, agent)
 
@@ -105,12 +106,13 @@ def train_policy(hooks: Session, *, config: cfg.ExpertConfig | cfg.ImitationConf
 def session(run: Run, *, info: EnvInfo, seed: int, device: torch.device, reference: Reference | None,
             on_progress: Progress | None) -> Session:
     """What an online loop in ``run`` reports to: checkpoints into the run, each evaluation to its learning curve,
-    progress as ``run_summary`` figures; and the checkpoint a resumed run goes on from."""
+    progress as ``run_summary`` figures; the checkpoint a resumed run goes on from, and whether it was asked to pause
+    (``Run.pause_requested``)."""
     return Session(
         info=info, seed=seed, device=device, reference=reference, resume=run.resume, on_checkpoint=run.save_checkpoint,
         on_evaluation=lambda current: run.write_log(learning_curve.FILE, current.history),
         on_progress=None if on_progress is None else lambda step, current: on_progress(step, run_summary(current)),
-        progress_every=PROGRESS_EVERY,
+        progress_every=PROGRESS_EVERY, stop_requested=run.pause_requested,
     )
 
 
