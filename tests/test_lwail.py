@@ -275,6 +275,16 @@ def test_a_run_asked_to_pause_checkpoints_there_and_resumes_bit_for_bit(store, a
     pd.testing.assert_frame_equal(*(pd.read_csv(p.file("learning_curve.csv")).drop(columns="wall_time") for p in (straight, resumed)))
 
 
+def test_a_pause_says_the_same_after_the_trip_a_sweep_gives_it():
+    """Ray hands a run's error back to the sweep pickled: the line the user reads must survive it."""
+    import pickle
+
+    from lwail_cli.errors import RunPaused
+
+    paused = pickle.loads(pickle.dumps(RunPaused(451_300)))
+    assert str(paused) == str(RunPaused(451_300)) and str(paused).startswith("paused at step 451300 as asked") and paused.step == 451_300
+
+
 def test_a_pause_asked_of_a_process_that_was_then_killed_does_not_stop_its_resumed_run(store, cli):
     stages = _imitation_stages(store)
 

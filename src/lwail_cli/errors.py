@@ -12,3 +12,6 @@ class RunPaused(LwailError):
         super().__init__(f"paused at step {step} as asked, its checkpoint kept: the same command with --resume continues it "
                          "(a sweep's run: run the sweep again)")
         self.step = step
+
+    def __reduce__(self):  # rebuilt from its step, not its message (Ray hands a task's error back to the sweep so)
+        return RunPaused, (self.step,)
