@@ -122,3 +122,40 @@ def test_the_settings_a_resume_may_change_are_declared_on_them_and_listed_in_the
     assert cfg.resume_may_change(cfg.EmbedConfig) == embedded  # each trained embedding's own section
     assert f"{embedded[-2]} and {embedded[-1]} may differ." in resume_option(cfg.EmbedConfig, "pre-training").help
     assert "train.checkpoint_every and train.average_tau may differ" in resume_option(cfg.ImitationConfig, "run").help
+
+
+def _leaves(config_class: type, prefix: str = "", added: bool = False) -> list[tuple[str, bool]]:
+    """Every leaf field (``section.field``) of a config class, and whether it (or its section) is declared ``since``."""
+    import typing
+
+    hints, leaves = typing.get_type_hints(config_class), []
+    for f in dataclasses.fields(config_class):
+        since = added or f.metadata.get("since") is not None
+        if dataclasses.is_dataclass(hints[f.name]):
+            leaves += _leaves(hints[f.name], f"{prefix}{f.name}.", since)
+        else:
+            leaves.append((f"{prefix}{f.name}", since))
+    return leaves
+
+
+def test_every_field_lwail_0_3_did_not_have_says_since_when():
+    """A sweep finds the stages lwail 0.3 finished under 0.3's record (every field, none added since): a field added
+    without ``since`` would change that record, and an upgraded sweep would rerun every finished run."""
+    from pathlib import Path
+
+    layout_0_3 = json.loads((Path(__file__).parent / "data" / "config-layout-0.3.json").read_text())  # 0.3's STAGES, as 45caa73 declared them
+    assert set(layout_0_3) == set(cfg.STAGES)
+    for stage, config_class in cfg.STAGES.items():
+        assert sorted(path for path, since in _leaves(config_class) if not since) == sorted(layout_0_3[stage]), stage
+    assert [path for path, since in _leaves(cfg.ImitationConfig) if since] == [f"bco.{f.name}" for f in dataclasses.fields(cfg.BcoConfig)]
+
+
+def test_the_record_of_0_3_holds_every_section_read_or_not_and_none_added_since():
+    lwail = cfg.ImitationConfig()
+    as_0_3 = cfg.recorded_by_0_3(lwail)
+    assert as_0_3 == cfg.to_dict(lwail) | {
+        "gaifo": cfg.to_dict(cfg.GaifoConfig()), "pwil": cfg.to_dict(cfg.PwilConfig())}
+    # a setting added since, unread by this method, leaves the record alone; read with another value, no 0.3 run matches
+    assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["bco.lr=0.01"])) == as_0_3
+    assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["method=bco", "bco.lr=0.01"])) is None
+    assert cfg.recorded_by_0_3(cfg.EmbedConfig(kind="icvf")).keys() == {"kind", "icvf", "infonce", "curl"}

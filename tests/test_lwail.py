@@ -229,18 +229,22 @@ def _imitation_stages(store) -> dict:
     return dict(env_id="InvertedPendulum-v5", demos_ref=bundled.ref, embedding_ref=embedding.ref, disc_ref=disc.ref, config=config, seed=0, device=device)
 
 
-def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
-    stages = _imitation_stages(store)
-    config = stages["config"]
-    straight = imitate.imitate(store, name="straight", **stages)
-
+def _imitations_killed_at_1000(store, stages: dict, *names: str) -> None:
+    """Start an imitation of each name and kill it at step 1000 (its checkpoint at 500 survives)."""
     def kill(step, shown):
         if step == 1000:
             raise Killed
 
-    for name in ("killed", "observed"):
+    for name in names:
         with pytest.raises(Killed):
             imitate.imitate(store, name=name, on_progress=kill, **stages)
+
+
+def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
+    stages = _imitation_stages(store)
+    config = stages["config"]
+    straight = imitate.imitate(store, name="straight", **stages)
+    _imitations_killed_at_1000(store, stages, "killed", "observed")
     resumed = imitate.imitate(store, name="killed", resume=True, **stages)
     # evaluating 4x as often (the critic's diagnostics included) and checkpointing elsewhere changes nothing trained
     observed_config = cfg.with_overrides(config, ["train.eval_every=250", "train.eval_episodes=1", "train.checkpoint_every=700"])
@@ -248,6 +252,25 @@ def test_imitation_resume_after_a_kill_matches_an_uninterrupted_run(store):
     assert pd.read_csv(observed.file("learning_curve.csv"))["step"].tolist() == [750, 1000, 1250, 1500]
     for name in ("actor.safetensors", "critic.safetensors"):
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes() == observed.file(name).read_bytes()
+
+
+def test_a_checkpoint_lwail_0_3_wrote_resumes_bit_for_bit_and_one_of_another_run_is_still_refused(store):
+    """lwail 0.3 recorded every section of a run's config, read or not (gaifo.*, pwil.* in an LWAIL run): its checkpoint
+    is the same run and resumes; one whose recorded config differs in what the run reads is refused as before."""
+    stages = _imitation_stages(store)
+    straight = imitate.imitate(store, name="straight", **stages)
+    _imitations_killed_at_1000(store, stages, "from-0.3", "other-0.3")
+    as_0_3 = cfg.recorded_by_0_3(stages["config"])
+    assert {"gaifo", "pwil"} <= set(as_0_3) and "bco" not in as_0_3 and "gaifo" not in cfg.to_dict(stages["config"])
+    for name, config in (("from-0.3", as_0_3), ("other-0.3", {**as_0_3, "update_steps": 4})):
+        state = store.runs.load_checkpoint("policy", name)
+        state["record"]["config"] = config | {"critic": state["record"]["config"]["critic"]}
+        store.runs.save_checkpoint("policy", name, state)
+    resumed = imitate.imitate(store, name="from-0.3", resume=True, **stages)
+    for name in ("actor.safetensors", "critic.safetensors"):
+        assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
+    with pytest.raises(LwailError, match="made with another config"):
+        imitate.imitate(store, name="other-0.3", resume=True, **stages)
 
 
 @pytest.mark.parametrize("ask", ["lwail pause", "SIGTERM"])

@@ -440,3 +440,38 @@ def test_the_queue_never_leaves_a_place_free_while_work_waits_and_runs_each_once
             queue.phi_made(item[1]) if item[0] == "phi" else queue.run_ended()
         work = {item: ticks - 1 for item, ticks in work.items()}
     assert handed == plan
+
+
+def test_a_run_that_lwail_0_3_finished_is_found_under_its_0_3_fingerprint_and_not_run_again(store, monkeypatch):
+    """The 3-seed table's HalfCheetah seed 2 finished on lwail 0.3 (45caa73), whose ledger fingerprinted every section
+    of the config, read or not; today's records leave unread ones out. Its ledger entry, as 0.3 wrote it (the key and the
+    parents' hashes are that store's), still names the finished run, which is then filed under today's fingerprint."""
+    from types import SimpleNamespace
+
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import read_plan
+
+    plan = read_plan(PLANS / "mujoco-table.toml")
+    run = next(run for run in plan.runs if (run.task, run.seed, run.kind) == ("HalfCheetah-v5", 2, "icvf"))
+    name = plan.names(run)["policy"]
+    assert name == "mujoco-table-halfcheetah-v5-s2-icvf"
+    with store.create("policy", name, env=None, config={}, seed=2) as writer:
+        (writer.path("learning_curve.csv")).write_text("step\n1000000\n")
+    finished = writer.artifact
+    store.runs.record_finished_stage(plan.name, "400c9f42a1dc9ead063ace9712bcf5d2", finished.ref)  # 0.3's entry
+    parents = {"demos": "fc6ed6601605ba2e85d741659fc154d1373ddc36499e122acce0a9a94746e02c",
+               "embedding": "bc26342af1cdaccb74a2c031261fcb7bdb5e1df9279b36393e16ec58083c9427",
+               "discriminator": "9114d5b9f096518fe12364910388ac0a15b499481c2aa67e4e76383552776ec7"}
+    made = {kind: SimpleNamespace(hash=digest) for kind, digest in parents.items()}
+
+    def run_again(*args, **kwargs):
+        raise AssertionError("a finished run ran again")
+
+    monkeypatch.setattr(sweep, "run_stage", run_again)
+    assert sweep._stage(store, plan, run, "imitate", made).ref == finished.ref
+    entries = sorted(path.stem for path in (store.root / ".runs" / "sweep" / plan.name).glob("*.ref"))
+    assert len(entries) == 2 and "400c9f42a1dc9ead063ace9712bcf5d2" in entries
+    (store.root / ".runs" / "sweep" / plan.name / "400c9f42a1dc9ead063ace9712bcf5d2.ref").unlink()
+    assert sweep._stage(store, plan, run, "imitate", made).ref == finished.ref  # today's entry alone finds it now
+    with pytest.raises(AssertionError, match="ran again"):  # another run (seed 1's parents) is not this one
+        sweep._stage(store, plan, run, "imitate", {**made, "demos": SimpleNamespace(hash="0" * 64)})

@@ -13,7 +13,9 @@ from dataclasses import dataclass
 
 from .errors import LwailError
 # the machinery, re-exported: callers build, record and override configs as cfg.to_dict, cfg.with_overrides, ...
-from .settings import Validated, describe, from_dict, resume_may_change, section, setting, to_dict, with_overrides  # noqa: F401
+from .settings import (  # noqa: F401
+    Validated, describe, from_dict, recorded_by_0_3, resume_may_change, section, setting, to_dict, with_overrides,
+)
 
 MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps take ~1.5 h here)
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
@@ -229,7 +231,8 @@ class ImitationConfig(Validated):
     expert_episodes: int = setting(1, "expert trajectories to imitate", low=1, high=10_000)
     gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (method gaifo)", used_when=("method", ("gaifo",)))
     pwil: PwilConfig = section(PwilConfig, "PWIL's reward (method pwil)", used_when=("method", ("pwil",)))
-    bco: BcoConfig = section(BcoConfig, "BCO's inverse-dynamics model and cloned policy (method bco)", used_when=("method", ("bco",)))
+    bco: BcoConfig = section(BcoConfig, "BCO's inverse-dynamics model and cloned policy (method bco)", used_when=("method", ("bco",)),
+                             since="0.4")
 
 
 @dataclass(frozen=True)

@@ -48,15 +48,19 @@ def run_record(config: dict, seed: int, env_id: str, parents: list[Artifact]) ->
 
 
 @contextmanager
-def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, config_class: type) -> Iterator[Run]:
+def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, config_class: type,
+             recorded_by_0_3: dict | None = None) -> Iterator[Run]:
     """Claim the run ``kind/name`` for this process (a fresh run never overwrites a killed run's checkpoint) and, with
-    ``resume``, load its checkpoint, refused when made from another ``record`` than this one: only the settings of
-    ``config_class`` declared ``resume_may_change`` may differ. The block writes the run's artifact; when it ends
-    normally the checkpoint goes, when it raises the checkpoint stays for the next ``--resume``."""
+    ``resume``, load its checkpoint, refused when made from another ``record`` than this one (or than
+    ``recorded_by_0_3``, the same run as lwail 0.3 recorded it): only the settings of ``config_class`` declared
+    ``resume_may_change`` may differ. The block writes the run's artifact; when it ends normally the checkpoint goes,
+    when it raises the checkpoint stays for the next ``--resume``."""
     with store.runs.claim_run(kind, name, resume=resume):
         state = store.runs.load_checkpoint(kind, name) if resume else None
         if state is not None:
-            _refuse_another_run(kind, name, state["record"], record, cfg.resume_may_change(config_class))
+            may_change = cfg.resume_may_change(config_class)
+            if recorded_by_0_3 is None or _changed(state["record"], recorded_by_0_3, may_change):
+                _refuse_another_run(kind, name, state["record"], record, may_change)
         store.runs.take_pause_request(kind, name)  # asked of an earlier process of the run: not of this one
         run = Run(store, kind, name, record, state)
         with _pause_on_sigterm(run.terminated):
@@ -84,8 +88,12 @@ def _pause_on_sigterm(terminated: threading.Event) -> Iterator[None]:
         signal.signal(signal.SIGTERM, before)
 
 
+def _changed(recorded: dict, record: dict, may_change: tuple[str, ...]) -> list[str]:
+    return [key for key in record if _what_trains(recorded.get(key), may_change) != _what_trains(record[key], may_change)]
+
+
 def _refuse_another_run(kind: str, name: str, recorded: dict, record: dict, may_change: tuple[str, ...]) -> None:
-    changed = [key for key in record if _what_trains(recorded.get(key), may_change) != _what_trains(record[key], may_change)]
+    changed = _changed(recorded, record, may_change)
     if changed:
         # named only where the run records the setting's section (an embedding records its own kind's alone)
         recorded_here = [setting for setting in may_change if setting.partition(".")[0] in record["config"]]

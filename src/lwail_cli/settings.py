@@ -20,24 +20,25 @@ from .errors import LwailError
 
 
 def setting(default, doc: str, *, low=None, high=None, below=None, choices=None, aliases=None, resume_may_change=False,
-            used_when: tuple[str, tuple] | None = None):
+            used_when: tuple[str, tuple] | None = None, since: str | None = None):
     """A config field: its default, a one-line doc, and the bounds checked on every construction
     (``low``/``high`` inclusive, ``below`` exclusive, ``choices`` a set of allowed values). ``aliases`` maps
     values an older lwail recorded (or a plan still spells) to the value they mean now. ``resume_may_change``: a
     killed run may be resumed with another value, because the field sets only the budget or how the run is watched
     (logged, evaluated, checkpointed) and draws no training randomness; a resume that changes any other field is
-    refused (tests/test_lwail.py checks both bit for bit). ``used_when``: as for ``section``."""
+    refused (tests/test_lwail.py checks both bit for bit). ``used_when`` and ``since``: as for ``section``."""
     return field(default=default, metadata={"doc": doc, "low": low, "high": high, "below": below, "choices": choices,
                                             "aliases": aliases or {}, "resume_may_change": resume_may_change,
-                                            "used_when": used_when})
+                                            "used_when": used_when, "since": since})
 
 
-def section(factory, doc: str, *, used_when: tuple[str, tuple] | None = None):
+def section(factory, doc: str, *, used_when: tuple[str, tuple] | None = None, since: str | None = None):
     """A nested config (e.g. the TD3 settings inside the imitation config). ``used_when = (field, values)``: read
     only when the config's ``field`` (e.g. ``method``) is one of ``values``; otherwise it is left out of the record,
     so a run's record (its manifest, its resume check, a sweep's fingerprint) holds only what the run reads and stays
-    the same when another method's or embedding's section is added."""
-    return field(default_factory=factory, metadata={"doc": doc, "used_when": used_when})
+    the same when another method's or embedding's section is added. ``since``: the lwail version that added the field,
+    for every field added after 0.3 (whose records held every field; ``recorded_by_0_3``)."""
+    return field(default_factory=factory, metadata={"doc": doc, "used_when": used_when, "since": since})
 
 
 class Validated:
@@ -102,6 +103,23 @@ def _read(config, f: dataclasses.Field) -> bool:
     """Whether ``config`` reads field ``f``: always, unless its ``used_when`` selector picks other values."""
     selector = f.metadata.get("used_when")
     return selector is None or vars(config)[selector[0]] in selector[1]
+
+
+def recorded_by_0_3(config) -> dict | None:
+    """The config as lwail 0.3 recorded it (its manifests, checkpoints and sweep ledgers): every field, read or not,
+    less those added since. None when a field added since is read and holds another value than its default: no 0.3
+    run could have been made with it."""
+    recorded = {}
+    for f in dataclasses.fields(config):
+        value = vars(config)[f.name]
+        if f.metadata.get("since") is not None:
+            if _read(config, f) and value != (f.default_factory() if f.default is dataclasses.MISSING else f.default):
+                return None
+            continue
+        recorded[f.name] = recorded_by_0_3(value) if dataclasses.is_dataclass(value) else _plain(value)
+        if recorded[f.name] is None:
+            return None
+    return recorded
 
 
 def from_dict(cls, data: dict):

@@ -50,8 +50,11 @@ def imitate(
     reference = reference_for_env(env_id, demos)
     name = name or default_name(env_id, config.method)
     parents = [demos, embedding] + ([disc] if disc else [])
-    record = cfg.to_dict(config) | ({"critic": cfg.to_dict(critic)} if critic else {})
-    with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, parents), config_class=cfg.ImitationConfig) as run:
+    critic_record = {"critic": cfg.to_dict(critic)} if critic else {}
+    record = cfg.to_dict(config) | critic_record
+    as_0_3 = cfg.recorded_by_0_3(config)  # a checkpoint lwail 0.3 wrote recorded every section, read or not
+    with open_run(store, "policy", name, resume=resume, record=run_record(record, seed, env_id, parents), config_class=cfg.ImitationConfig,
+                  recorded_by_0_3=None if as_0_3 is None else run_record(as_0_3 | critic_record, seed, env_id, parents)) as run:
         width = (disc.config["input_dim"] if disc else 2 * load_encoder(embedding).dim) if method.caches_features else 0
         capacity = start_online_run(run, info, config, seed, feature_width=width)  # then φ and the method's networks
         # (a warmed-up f's initial weights replaced by its artifact's) draw from torch's generator before the agent does

@@ -38,16 +38,24 @@ STATUS = {"pretrain-icvf": "pre-training φ", "warmup-disc": "warming up f", "im
 
 # ------------------------------------------------------------------------------ one stage, once
 def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, make: Callable[[], Artifact],
-          still_current: Callable[[Artifact], bool] = lambda artifact: True) -> Artifact:
+          still_current: Callable[[Artifact], bool] = lambda artifact: True, recorded_by_0_3: dict | None = None) -> Artifact:
     """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents
-    (and ``still_current``, for inputs the record cannot name)."""
-    key = hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
-    done = store.finished_stage(plan.name, key, kind, name)
-    if done is not None and still_current(done):
-        return done
+    (and ``still_current``, for inputs the record cannot name). A stage that lwail 0.3 finished is found under the
+    fingerprint of ``recorded_by_0_3`` (its record held every field, read or not) and filed under today's."""
+    key, key_0_3 = (_fingerprint(kind, name, r) if r is not None else None for r in (record, recorded_by_0_3))
+    for found_under in (key, key_0_3):
+        done = store.finished_stage(plan.name, found_under, kind, name) if found_under is not None else None
+        if done is not None and still_current(done):
+            if found_under != key:
+                store.runs.record_finished_stage(plan.name, key, done.ref)
+            return done
     artifact = make()
     store.runs.record_finished_stage(plan.name, key, artifact.ref)
     return artifact
+
+
+def _fingerprint(kind: str, name: str, record: dict) -> str:
+    return hashlib.sha256(json.dumps({"kind": kind, "name": name, **record}, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
 
 def bundled_demos(store: Store, plan: SweepPlan, task: str) -> Artifact:
@@ -114,14 +122,16 @@ def _stage(store: Store, plan: SweepPlan, run: SweepRun, stage: str, made: dict[
 
     config, kind = plan.run_config(stage, run), MAKES[stage]
     name = plan.names(run)[kind]
-    record = _record(config, run.seed, *(made[read] for read in reads(stage, run.imitation)))
-    return _once(store, plan, kind, name, record,
+    parents = [made[read] for read in reads(stage, run.imitation)]
+    as_0_3 = cfg.recorded_by_0_3(config)
+    return _once(store, plan, kind, name, _record(cfg.to_dict(config), run.seed, parents),
                  lambda: run_stage(store, stage, made=made, env_id=run.task, config=config, seed=run.seed, device=torch.device("cpu"),
-                                   name=name, resume=store.runs.has_checkpoint(kind, name)))
+                                   name=name, resume=store.runs.has_checkpoint(kind, name)),
+                 recorded_by_0_3=None if as_0_3 is None else _record(as_0_3, run.seed, parents))
 
 
-def _record(config, seed: int, *parents: Artifact) -> dict:
-    return {"config": cfg.to_dict(config), "seed": seed, "parents": [p.hash for p in parents]}
+def _record(config: dict, seed: int, parents: list[Artifact]) -> dict:
+    return {"config": config, "seed": seed, "parents": [p.hash for p in parents]}
 
 
 def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
