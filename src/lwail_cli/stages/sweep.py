@@ -42,9 +42,9 @@ def _once(store: Store, plan: SweepPlan, kind: str, name: str, record: dict, mak
     """``make()`` unless the ledger holds an intact artifact made from the same stage, name, config, seed and parents
     (and ``still_current``, for inputs the record cannot name). A stage that lwail 0.3 finished is found under the
     fingerprint of ``recorded_by_0_3`` (its record held every field, read or not) and filed under today's."""
-    key, key_0_3 = (_fingerprint(kind, name, r) if r is not None else None for r in (record, recorded_by_0_3))
-    for found_under in (key, key_0_3):
-        done = store.finished_stage(plan.name, found_under, kind, name) if found_under is not None else None
+    key = _fingerprint(kind, name, record)
+    for found_under in [key] + ([_fingerprint(kind, name, recorded_by_0_3)] if recorded_by_0_3 is not None else []):
+        done = store.finished_stage(plan.name, found_under, kind, name)
         if done is not None and still_current(done):
             if found_under != key:
                 store.runs.record_finished_stage(plan.name, key, done.ref)
