@@ -4,6 +4,7 @@ import json
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 from safetensors.torch import load_file
@@ -12,7 +13,7 @@ from lwail_cli import config as cfg
 from lwail_cli.contrastive import info_nce
 from lwail_cli.curl import pretrain_curl
 from lwail_cli.embeddings import EMBEDDINGS, embedding, unread_settings
-from lwail_cli.errors import LwailError
+from lwail_cli.errors import LwailError, RunPaused
 from lwail_cli.infonce import pretrain_infonce
 from lwail_cli.loaders import load_encoder
 from lwail_cli.stages import collect, embed
@@ -101,6 +102,27 @@ def test_contrastive_pretraining_resumes_after_a_kill_bit_for_bit(store, kind):
     resumed = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="killed", device=device, resume=True)
     assert straight.file("phi.safetensors").read_bytes() == resumed.file("phi.safetensors").read_bytes()
     assert straight.config["type"] == kind and straight.config[kind]["embedding_dim"] == 8 and "icvf" not in straight.config
+
+
+@pytest.mark.parametrize("kind", ["icvf", *CONTRASTIVE])
+def test_lwail_pause_stops_a_pretraining_at_its_next_step_and_resume_gives_the_unpaused_phi(store, cli, kind):
+    device = torch.device("cpu")
+    data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
+    config = cfg.with_overrides(cfg.EmbedConfig(), [f"kind={kind}", f"{kind}.steps=30", f"{kind}.batch_size=32", f"{kind}.hidden=16",
+                                                    f"{kind}.embedding_dim=8", f"{kind}.log_every=10", f"{kind}.checkpoint_every=10"])
+    straight = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="straight", device=device)
+    asked = []
+
+    def pause_at_25(step, shown):
+        if step == 25:  # between two checkpoints (every 10): what a kill would lose, a pause keeps
+            asked.append(cli("pause", "paused").output)
+
+    with pytest.raises(RunPaused, match="paused at step 25 as asked"):
+        embed.embed(store, data_ref=data.ref, config=config, seed=0, name="paused", device=device, on_progress=pause_at_25)
+    assert asked == ["asked embedding/paused to checkpoint and stop\n"] and store.runs.load_checkpoint("embedding", "paused")["step"] == 25
+    resumed = embed.embed(store, data_ref=data.ref, config=config, seed=0, name="paused", device=device, resume=True)
+    assert straight.file("phi.safetensors").read_bytes() == resumed.file("phi.safetensors").read_bytes()
+    pd.testing.assert_frame_equal(*(pd.read_csv(e.file("loss.csv")).drop(columns="wall_time") for e in (straight, resumed)))
 
 
 @pytest.mark.parametrize("kind", CONTRASTIVE)

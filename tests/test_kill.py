@@ -1,6 +1,7 @@
 """SIGKILL real `lwail` processes of each long stage at random moments and resume them each time: the result is
 byte for byte the unkilled run's (atomic checkpoints, a dead owner's lock taken over, nothing half-written)."""
 
+import re
 import signal
 import subprocess
 import sys
@@ -61,3 +62,33 @@ def test_random_sigkills_then_resume_give_the_unkilled_result(tmp_path, stage):
     straight, killed = store.resolve("straight", kind), store.resolve("killed", kind)
     assert straight.file(compared).read_bytes() == killed.file(compared).read_bytes()
     assert not (root / ".runs" / kind / "killed").exists() and not list((root / ".tmp").iterdir())
+
+
+def _checkpoint_step(store, kind):
+    state = store.runs.load_checkpoint(kind, "paused")
+    return state["run"]["step"] if kind == "policy" else state["step"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("stage", list(STAGES))
+def test_sigterm_pauses_a_real_run_of_each_long_stage_and_resume_gives_the_unpaused_result(tmp_path, stage):
+    """A first SIGTERM (what `kill` and a scheduler's preemption send) checkpoints the run where it is and ends it
+    with one line; a `pretrain-icvf` once ignored it and trained on."""
+    kind, args, compared = STAGES[stage]
+    root = tmp_path / "store"
+    store = Store(root)
+    _prepare(store)
+    subprocess.run(_run(root, args, "straight", False), check=True, capture_output=True)
+    process = subprocess.Popen(_run(root, args, "paused", False), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not store.runs.has_checkpoint(kind, "paused") and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)  # its first checkpoint: the run is training, its SIGTERM handler set
+    process.send_signal(signal.SIGTERM)
+    error = process.communicate(timeout=60)[1]
+    paused_at = re.search(r"error: paused at step (\d+) as asked", error)
+    assert process.returncode == 1 and paused_at is not None and "Traceback" not in error, error
+    assert _checkpoint_step(store, kind) == int(paused_at[1])
+    finish = subprocess.run(_run(root, args, "paused", True), capture_output=True, text=True)
+    assert finish.returncode == 0, finish.stderr
+    straight, resumed = store.resolve("straight", kind), store.resolve("paused", kind)
+    assert straight.file(compared).read_bytes() == resumed.file(compared).read_bytes()

@@ -285,7 +285,7 @@ def test_a_run_asked_to_pause_checkpoints_there_and_resumes_bit_for_bit(store, a
 
     def pause_at_600(step, shown):
         if step == 600:  # between two checkpoints (every 500): what a kill would lose, a pause keeps
-            store.runs.request_pause("policy", "paused") if ask == "lwail pause" else os.kill(os.getpid(), signal.SIGTERM)
+            store.runs.request_pause("paused") if ask == "lwail pause" else os.kill(os.getpid(), signal.SIGTERM)
 
     handler = signal.getsignal(signal.SIGTERM)
     with pytest.raises(RunPaused, match="paused at step 600 as asked, its checkpoint kept"):
@@ -313,14 +313,14 @@ def test_a_pause_asked_of_a_process_that_was_then_killed_does_not_stop_its_resum
 
     def ask_then_die(step, shown):
         if step == 600:
-            store.runs.request_pause("policy", "run")
+            store.runs.request_pause("run")
             raise Killed  # before the loop looks at the request
 
     with pytest.raises(Killed):
         imitate.imitate(store, name="run", on_progress=ask_then_die, **stages)
     assert imitate.imitate(store, name="run", resume=True, **stages).metrics["env_steps"] == 1500
     result = cli("pause", "run")  # finished: nothing to pause
-    assert result.exit_code == 1 and "no run of policy/run is in progress in this store" in result.output and "Traceback" not in result.output
+    assert result.exit_code == 1 and "no run named run is in progress in this store" in result.output and "Traceback" not in result.output
 
 
 def test_resume_refuses_a_run_started_differently(store):

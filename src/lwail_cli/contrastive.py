@@ -83,7 +83,7 @@ def pretrain_contrastive(
 ) -> EmbeddingResult:
     """A contrastive φ on the episodes ``split_episodes`` does not hold out for the probe, with the batches
     ``sampler(training episodes, device)`` draws; ``loop``: ``pretraining.pretrain``'s progress, resume,
-    checkpoint and expert arguments."""
+    checkpoint, expert and stop arguments."""
     torch.manual_seed(seed)
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     draw = sampler(train, torch.device(device))

@@ -136,6 +136,7 @@ def pretrain_icvf(
     resume: dict | None = None,
     on_checkpoint: Callable[[dict], None] | None = None,
     expert: list[Episode] | None = None,
+    stop_requested: Callable[[], bool] | None = None,
 ) -> EmbeddingResult:
     """ICVF on the episodes (those ``split_episodes`` does not hold out for the probe); the loop, its logs,
     checkpoints and resume: ``pretraining.pretrain``."""
@@ -143,4 +144,4 @@ def pretrain_icvf(
     train, held_out = split_episodes(episodes, config.holdout_fraction, seed)
     sampler = GoalSampler(train, config, torch.device(device))
     learner = ICVFLearner(obs_dim, config, device)
-    return pretrain(learner, sampler.sample, config, held_out, device, on_progress, resume, on_checkpoint, expert)
+    return pretrain(learner, sampler.sample, config, held_out, device, on_progress, resume, on_checkpoint, expert, stop_requested)

@@ -11,6 +11,7 @@ import pandas as pd
 import torch
 
 from .data import Episode
+from .errors import RunPaused
 from .nets import Encoder
 from .probes import probe_critic_needs, probe_spearman
 from .resumable import Stopwatch, capture, checkpoint_due, restore
@@ -53,11 +54,13 @@ def pretrain(
     resume: dict | None = None,
     on_checkpoint: Callable[[dict], None] | None = None,
     expert: list[Episode] | None = None,
+    stop_requested: Callable[[], bool] | None = None,
 ) -> EmbeddingResult:
     """``schedule.steps`` updates on ``sample(batch_size)``, reporting every step to ``on_progress`` (with the mean loss
     since the last logged step at a logged one, else None); every ``schedule.checkpoint_every`` steps
     ``on_checkpoint`` gets the whole state (``resumable.capture``), and ``resume`` (such a state) continues bit for
-    bit. Every log row probes φ on the ``held_out`` episodes and, given the ``expert`` episodes, what the critic needs
+    bit. After every step ``stop_requested`` is asked (a step is ~0.1 s, a question a file's existence): when it says
+    so the run checkpoints there and raises ``RunPaused``. Every log row probes φ on the ``held_out`` episodes and, given the ``expert`` episodes, what the critic needs
     (``probes.probe_critic_needs``), so one long run shows which budget φ needs."""
     parts = {"learner": learner}
     rows, running, first, clock = [], torch.zeros((), device=device), 1, Stopwatch()
@@ -78,7 +81,10 @@ def pretrain(
             logged = loss
         if on_progress is not None:
             on_progress(step, logged)
-        if on_checkpoint is not None and checkpoint_due(step, schedule.checkpoint_every, schedule.steps):
+        stop = stop_requested is not None and step < schedule.steps and stop_requested()
+        if on_checkpoint is not None and (stop or checkpoint_due(step, schedule.checkpoint_every, schedule.steps)):
             on_checkpoint(capture(parts, rows=list(rows), step=step, wall_time=clock.elapsed(), running=running.detach().cpu().clone()))
+        if stop:
+            raise RunPaused(step)
     encoder = learner.encoder()
     return EmbeddingResult(encoder, pd.DataFrame(rows), probe_spearman(encoder, held_out), probe_spearman(lambda x: x, held_out))

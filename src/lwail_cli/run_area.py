@@ -113,13 +113,16 @@ class RunArea:
         shutil.rmtree(self._folder(kind, name), ignore_errors=True)
 
     # ---------------------------------------------------------------- a pause asked of a run in progress
-    def request_pause(self, kind: str, name: str) -> None:
-        """Ask the process training ``kind/name`` (its lock's holder, alive) to checkpoint and stop (`lwail pause`)."""
-        folder = self._folder(kind, name)
-        holder = _holder(_read_small(folder / "lock"))
-        if holder is None or abandoned_by(*holder):
-            raise LwailError(f"no run of {kind}/{name} is in progress in this store (finished, killed or never started): nothing to pause")
-        (folder / PAUSE_REQUEST).touch()
+    def request_pause(self, name: str) -> list[str]:
+        """Ask the process training a run named ``name`` (an `imitate`, `expert train` or `pretrain-icvf` run: its
+        lock's holder, alive) to checkpoint and stop (`lwail pause`); returns the kinds of the runs asked."""
+        check_name(name)
+        kinds = sorted(folder.parent.name for folder in self.root.glob(f"*/{name}") if _in_progress(folder))
+        if not kinds:
+            raise LwailError(f"no run named {name} is in progress in this store (finished, killed or never started): nothing to pause")
+        for kind in kinds:
+            (self._folder(kind, name) / PAUSE_REQUEST).touch()
+        return kinds
 
     def take_pause_request(self, kind: str, name: str) -> bool:
         """Whether a pause was asked of ``kind/name``; the request is taken (a resumed run does not stop at once)."""
@@ -177,6 +180,12 @@ class RunArea:
 
     def clear_sweep_status(self, sweep: str, run: str) -> None:
         self._status_path(sweep, run).unlink(missing_ok=True)
+
+
+def _in_progress(folder: Path) -> bool:
+    """Whether a live process holds the run folder's lock (one of another host counts: it cannot be checked from here)."""
+    holder = _holder(_read_small(folder / "lock"))
+    return holder is not None and not abandoned_by(*holder)
 
 
 def abandoned_by(host: str, pid: int) -> bool:

@@ -63,13 +63,13 @@ def verify(ref: Optional[str] = typer.Argument(None, metavar="REF", help="name, 
 
 
 @command(app, "pause")
-def pause(names: List[str] = typer.Argument(..., metavar="RUN...", help="The name of an `imitate` or `expert train` run in progress (as `lwail ls` will list its policy), e.g. a sweep's <sweep>-<task>-s<seed>-<arm>.")) -> None:
-    """Ask runs in progress to checkpoint and stop within ~100 env steps, to free the machine without losing their
-    work: the same command with --resume (a sweep: the same `lwail sweep`) continues each bit for bit. SIGTERM to a
-    run's process does the same."""
+def pause(names: List[str] = typer.Argument(..., metavar="RUN...", help="The name of an `imitate`, `expert train` or `pretrain-icvf` run in progress (as `lwail ls` will list its artifact), e.g. a sweep's <sweep>-<task>-s<seed>-<arm>.")) -> None:
+    """Ask runs in progress to checkpoint and stop (within ~100 env steps, or one pre-training step), to free the
+    machine without losing their work: the same command with --resume (a sweep: the same `lwail sweep`) continues each
+    bit for bit. SIGTERM to a run's process does the same."""
     for name in names:
-        store().runs.request_pause("policy", name)
-        typer.echo(f"asked {name} to checkpoint and stop")
+        for kind in store().runs.request_pause(name):
+            typer.echo(f"asked {kind}/{name} to checkpoint and stop")
 
 
 @command(app, "defaults")

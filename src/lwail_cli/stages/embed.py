@@ -55,7 +55,8 @@ def embed(
     with open_run(store, "embedding", name, resume=resume, record=run_record(record, seed, info.id, parents), config_class=cfg.EmbedConfig) as run:
         result = entry.pretrain(episodes, info.obs_dim, entry.settings(config), seed, device,
                                 on_progress=None if on_progress is None else lambda step, loss: on_progress(step, {} if loss is None else {"loss": loss}),
-                                resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert)
+                                resume=run.resume, on_checkpoint=run.save_checkpoint, expert=expert,
+                                stop_requested=run.pause_requested)
         with store.create("embedding", name, env=info, config=record, seed=seed, parents=parents) as writer:
             save_weights(writer.path("phi.safetensors"), result.encoder.state_dict())
             result.log.to_csv(writer.path("loss.csv"), index=False)
