@@ -327,9 +327,10 @@ def test_an_imitating_run_says_its_pace_and_the_time_left(store):
     assert _live_status(store, plan, run) == "imitating: step 100000 of 1000000, normalized score 10.0, 100 env-steps/s, ~2.5 h to go"
 
 
-def _fake_ray(monkeypatch, at_once: int) -> list:
-    """Ray as the driver sees it on 2 CPUs: a run's or φ's task finishes when the driver next waits, first started
-    first finished, and never more than ``at_once`` work at once. Returns what was handed to Ray: (function, args, task)."""
+def _fake_ray(monkeypatch, at_once: int, on_wait=lambda: None, get=lambda task: {"normalized_score": 1.0}) -> list:
+    """Ray as the driver sees it on 2 CPUs: a run's or φ's task finishes when the driver next waits (``on_wait()`` is
+    called first), first started first finished, and never more than ``at_once`` work at once; ``get`` gives a task's
+    result. Returns what was handed to Ray: (function, args, task)."""
     import sys
     import types
 
@@ -350,12 +351,13 @@ def _fake_ray(monkeypatch, at_once: int) -> list:
         return wrap
 
     def wait(tasks, num_returns, timeout):
+        on_wait()
         oldest = next(task for task in working if task in tasks)
         working.remove(oldest)
         return [oldest], [task for task in tasks if task is not oldest]
 
     fake_ray = types.SimpleNamespace(init=lambda **kwargs: None, shutdown=lambda: None, remote=remote, wait=wait,
-                                     cluster_resources=lambda: {"CPU": 2.0}, get=lambda task: {"normalized_score": 1.0})
+                                     cluster_resources=lambda: {"CPU": 2.0}, get=get)
     monkeypatch.setitem(sys.modules, "ray", fake_ray)
     monkeypatch.setattr(sweep.os, "cpu_count", lambda: 2)
     return handed
@@ -374,6 +376,46 @@ def test_runs_start_in_the_plans_order_never_more_at_once_than_the_cpus_hold(sto
     assert sweep.run_sweep(store, plan=plan, poll_seconds=0) == []
     started = [args[2:5] for function, args, _ in handed if function is sweep.run_task]
     assert started == [(run.task, run.seed, run.kind) for run in plan.runs] and len(started) == 6
+
+
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
+def test_a_signalled_sweep_pauses_what_is_at_work_starts_nothing_more_and_says_how_to_go_on(store, monkeypatch, signum):
+    import os
+    import signal
+
+    from lwail_cli.errors import LwailError, RunPaused
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import read_plan
+
+    plan = read_plan(PLANS / "smoke.toml")
+    signalled, asked = [], []
+    handed: list = []
+
+    def signal_at_the_third_wait():
+        if len(signalled) == 2:
+            os.kill(os.getpid(), getattr(signal, signum))  # as `kill` or Ctrl-C would, while the driver waits on Ray
+        signalled.append(len(handed))
+
+    class TaskError(Exception):  # Ray's error for a task that raised: the task's exception is its cause
+        def __init__(self, cause):
+            self.cause = cause
+
+    def result(task):
+        if len(signalled) > 2:  # finished after the signal: it was asked to pause
+            raise TaskError(RunPaused(1200))
+        return {"normalized_score": 1.0}
+
+    monkeypatch.setattr(type(store.runs), "request_pause", lambda runs, name, missing_ok=False: asked.append((name, missing_ok)) or [])
+    handed += _fake_ray(monkeypatch, at_once=2, on_wait=signal_at_the_third_wait, get=result)
+    before = {each: signal.getsignal(each) for each in (signal.SIGTERM, signal.SIGINT)}
+    with pytest.raises(LwailError, match=r"the sweep stopped as asked; paused with their checkpoints kept: .* at step 1200.*; "
+                                         r"failed: 0; the rest not started\. Run the same sweep again to continue"):
+        sweep.run_sweep(store, plan=plan, poll_seconds=0)
+    work = [(function, args) for function, args, _ in handed if function in (sweep.run_task, sweep.embed_task)]
+    assert len(handed) == signalled[2] and len(work) < len(plan.runs) + len(plan.phis)  # nothing handed out after the signal
+    at_work = {plan.names(run)["policy"] for run in plan.runs} | {plan.phi_name(*phi) for phi in plan.phis}
+    assert asked and {name for name, _ in asked} <= at_work and all(missing_ok for _, missing_ok in asked)
+    assert {each: signal.getsignal(each) for each in before} == before  # the driver's handlers are gone with it
 
 
 def test_the_arms_of_an_axis_that_does_not_reach_phi_imitate_on_one_phi_made_once(store, monkeypatch):

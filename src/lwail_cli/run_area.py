@@ -113,15 +113,17 @@ class RunArea:
         shutil.rmtree(self._folder(kind, name), ignore_errors=True)
 
     # ---------------------------------------------------------------- a pause asked of a run in progress
-    def request_pause(self, name: str) -> list[str]:
+    def request_pause(self, name: str, *, missing_ok: bool = False) -> list[str]:
         """Ask the process training a run named ``name`` (an `imitate`, `expert train` or `pretrain-icvf` run: its
-        lock's holder, alive) to checkpoint and stop (`lwail pause`); returns the kinds of the runs asked."""
+        lock's holder, alive) to checkpoint and stop (`lwail pause`); returns the kinds of the runs asked. None in
+        progress is refused unless ``missing_ok``."""
         check_name(name)
         kinds = sorted(folder.parent.name for folder in self.root.glob(f"*/{name}") if _in_progress(folder))
-        if not kinds:
+        if not kinds and not missing_ok:
             raise LwailError(f"no run named {name} is in progress in this store (finished, killed or never started): nothing to pause")
         for kind in kinds:
-            (self._folder(kind, name) / PAUSE_REQUEST).touch()
+            with contextlib.suppress(FileNotFoundError):  # it finished meanwhile, its folder gone: nothing left to pause
+                (self._folder(kind, name) / PAUSE_REQUEST).touch()
         return kinds
 
     def take_pause_request(self, kind: str, name: str) -> bool:

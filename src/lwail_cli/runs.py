@@ -63,29 +63,33 @@ def open_run(store: Store, kind: str, name: str, *, resume: bool, record: dict, 
                 _refuse_another_run(kind, name, state["record"], record, may_change)
         store.runs.take_pause_request(kind, name)  # asked of an earlier process of the run: not of this one
         run = Run(store, kind, name, record, state)
-        with _pause_on_sigterm(run.terminated):
+        with asked_on_signals(run.terminated, (signal.SIGTERM,)):
             yield run
         store.runs.clear_checkpoint(kind, name)
 
 
 @contextmanager
-def _pause_on_sigterm(terminated: threading.Event) -> Iterator[None]:
-    """While the run is open, a first SIGTERM asks it to checkpoint and stop (where its loop next looks, within
-    ~100 steps) instead of killing it; a second one acts as it would have. Only the main thread may set a handler."""
+def asked_on_signals(asked: threading.Event, signals: tuple[signal.Signals, ...]) -> Iterator[None]:
+    """While the block runs, the first of ``signals`` sets ``asked`` (a run: checkpoint and stop where its loop next
+    looks, within ~100 steps; a sweep: pause its runs) instead of killing the process; a second one acts as it would
+    have. Only the main thread may set a handler: elsewhere the signals keep theirs."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    before = signal.getsignal(signal.SIGTERM)
+    before = {signum: signal.getsignal(signum) for signum in signals}
 
     def ask(signum, frame) -> None:
-        terminated.set()
-        signal.signal(signal.SIGTERM, before)
+        asked.set()
+        for each, handler in before.items():
+            signal.signal(each, handler)
 
-    signal.signal(signal.SIGTERM, ask)
+    for signum in signals:
+        signal.signal(signum, ask)
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, before)
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
 
 
 def _changed(recorded: dict, record: dict, may_change: tuple[str, ...]) -> list[str]:

@@ -15,12 +15,15 @@ import functools
 import hashlib
 import json
 import os
+import signal
+import threading
 from typing import TYPE_CHECKING, Callable
 
 from .. import config as cfg
 from ..artifacts import Store
-from ..errors import LwailError
+from ..errors import LwailError, RunPaused
 from ..loaders import read_curve
+from ..runs import asked_on_signals
 from .chain import MAKES, chain_for, reads, run_stage
 from .demos import holds_bundled_demos, import_bundled_demos
 from .evaluate import evaluate, logged_normalized_evaluation
@@ -146,7 +149,9 @@ def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
 def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_status: Callable[[dict[str, str]], None] | None = None,
               poll_seconds: float = 5.0) -> list[str]:
     """Run every stage of the plan on Ray; returns the runs that failed (each with its error). ``on_status`` gets
-    one line per run (queued, step and latest normalized score, done or failed) whenever one changes."""
+    one line per run (queued, step and latest normalized score, done or failed) whenever one changes. A first SIGTERM
+    or Ctrl-C to the driver pauses the φs and imitations at work (``lwail pause``: checkpointed where they are), waits
+    for them and starts nothing more, then raises a line saying so: the same sweep continues them bit for bit."""
     try:
         import ray
     except ImportError:
@@ -161,6 +166,8 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     # without an address, a private Ray instance: ray.init(None) would join whatever cluster RAY_ADDRESS or the
     # last `ray start` on this machine names, another user's or a dead one
     ray.init(address=address or "local", include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
+    stop = threading.Event()  # SIGTERM or Ctrl-C: pause the runs at work, start nothing more
+    paused: list[str] = []
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
@@ -172,35 +179,45 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         status = {r.label: "queued" for r in plan.runs}
         failures: list[str] = []
         shown: dict[str, str] = {}
-        while queue.unfinished():
-            phis, runs = queue.take()
-            for task, seed, kind in phis:
-                phi[task, seed, kind] = embed_remote.remote(root, plan_dict, task, seed, kind, demos[task], data[(task, seed)])
-                making[phi[task, seed, kind]] = (task, seed, kind)
-            for r in runs:
-                pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method,
-                                   phi[plan.phi_of(r)])] = r
-            watched = [*pending, *making]
-            done, _ = ray.wait(watched, num_returns=len(watched), timeout=poll_seconds)
-            for ref in done:
-                if ref in making:  # a φ made (or failed: its runs fail with its error when they read it)
-                    queue.phi_made(making.pop(ref))
-                    continue
-                finished = pending.pop(ref)
-                queue.run_ended()
-                try:
-                    status[finished.label] = f"done, normalized score {ray.get(ref)['normalized_score']:.1f}"
-                except Exception as exc:  # a run's failure is reported, the others go on
-                    cause = getattr(exc, "cause", None) or exc
-                    status[finished.label] = f"failed: {cause}"
-                    failures.append(f"{finished.label}: {cause}")
-            for unfinished in [*pending.values(), *queue.parked, *queue.waiting]:
-                status[unfinished.label] = _live_status(store, plan, unfinished) or "queued"
-            if on_status is not None and status != shown:
-                on_status(dict(status))
-                shown = dict(status)
+        with asked_on_signals(stop, (signal.SIGTERM, signal.SIGINT)):
+            while pending or making or (queue.unfinished() and not stop.is_set()):
+                if stop.is_set():  # asked again at every poll: a run that opens after the first ask is asked too
+                    for name in [plan.phi_name(*key) for key in making.values()] + [plan.names(r)["policy"] for r in pending.values()]:
+                        store.runs.request_pause(name, missing_ok=True)
+                else:
+                    phis, runs = queue.take()
+                    for task, seed, kind in phis:
+                        phi[task, seed, kind] = embed_remote.remote(root, plan_dict, task, seed, kind, demos[task], data[(task, seed)])
+                        making[phi[task, seed, kind]] = (task, seed, kind)
+                    for r in runs:
+                        pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method,
+                                           phi[plan.phi_of(r)])] = r
+                watched = [*pending, *making]
+                done, _ = ray.wait(watched, num_returns=len(watched), timeout=poll_seconds)
+                for ref in done:
+                    if ref in making:  # a φ made (or failed: its runs fail with its error when they read it)
+                        queue.phi_made(making.pop(ref))
+                        continue
+                    finished = pending.pop(ref)
+                    queue.run_ended()
+                    try:
+                        status[finished.label] = f"done, normalized score {ray.get(ref)['normalized_score']:.1f}"
+                    except Exception as exc:  # a run's failure is reported, the others go on
+                        cause = getattr(exc, "cause", None) or exc
+                        status[finished.label] = f"failed: {cause}"
+                        failures.append(f"{finished.label}: {cause}")
+                        if isinstance(cause, RunPaused):
+                            paused.append(f"{finished.label} at step {cause.step}")
+                for unfinished in [*pending.values(), *queue.parked, *queue.waiting]:
+                    status[unfinished.label] = _live_status(store, plan, unfinished) or "queued"
+                if on_status is not None and status != shown:
+                    on_status(dict(status))
+                    shown = dict(status)
     finally:
         ray.shutdown()
+    if stop.is_set():
+        raise LwailError(f"the sweep stopped as asked; paused with their checkpoints kept: {'; '.join(paused) or 'none (no run was at work)'}; "
+                         f"failed: {len(failures) - len(paused)}; the rest not started. Run the same sweep again to continue")
     return failures
 
 

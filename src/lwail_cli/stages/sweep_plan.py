@@ -123,10 +123,14 @@ class SweepPlan:
     def dataset_name(self, task: str, seed: int) -> str:
         return f"{self.name}-{task.lower()}-s{seed}-data"
 
+    def phi_name(self, task: str, seed: int, phi_arm: str) -> str:
+        """The name of the φ of ``phi_of``'s (task, seed, φ arm)."""
+        return f"{self.name}-{task.lower()}-s{seed}-{phi_arm}"
+
     def names(self, run: SweepRun) -> dict[str, str]:
         """Each artifact's name, by kind."""
         base = f"{self.name}-{run.task.lower()}-s{run.seed}"
-        return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": f"{base}-{self._phi_arms[run.kind]}",
+        return {"demos": self.demos_name(run.task), "dataset": self.dataset_name(run.task, run.seed), "embedding": self.phi_name(*self.phi_of(run)),
                 "discriminator": f"{base}-{run.kind}-disc", "policy": f"{base}-{run.arm}"}
 
     def to_dict(self) -> dict:
