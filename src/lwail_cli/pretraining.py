@@ -60,8 +60,9 @@ def pretrain(
     since the last logged step at a logged one, else None); every ``schedule.checkpoint_every`` steps
     ``on_checkpoint`` gets the whole state (``resumable.capture``), and ``resume`` (such a state) continues bit for
     bit. After every step ``stop_requested`` is asked (a step is ~0.1 s, a question a file's existence): when it says
-    so the run checkpoints there and raises ``RunPaused``. Every log row probes φ on the ``held_out`` episodes and, given the ``expert`` episodes, what the critic needs
-    (``probes.probe_critic_needs``), so one long run shows which budget φ needs."""
+    so the run checkpoints there and raises ``RunPaused``. Every log row probes φ on the ``held_out`` episodes and,
+    given the ``expert`` episodes, what the critic needs (``probes.probe_critic_needs``), so one long run shows which
+    budget φ needs."""
     parts = {"learner": learner}
     rows, running, first, clock = [], torch.zeros((), device=device), 1, Stopwatch()
     if resume is not None:

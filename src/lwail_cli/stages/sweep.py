@@ -182,8 +182,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         with asked_on_signals(stop, (signal.SIGTERM, signal.SIGINT)):
             while pending or making or (queue.unfinished() and not stop.is_set()):
                 if stop.is_set():  # asked again at every poll: a run that opens after the first ask is asked too
-                    for name in [plan.phi_name(*key) for key in making.values()] + [plan.names(r)["policy"] for r in pending.values()]:
-                        store.runs.request_pause(name, missing_ok=True)
+                    _ask_to_pause(store, plan, phis=making.values(), runs=pending.values())
                 else:
                     phis, runs = queue.take()
                     for task, seed, kind in phis:
@@ -219,6 +218,13 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
         raise LwailError(f"the sweep stopped as asked; paused with their checkpoints kept: {'; '.join(paused) or 'none (no run was at work)'}; "
                          f"failed: {len(failures) - len(paused)}; the rest not started. Run the same sweep again to continue")
     return failures
+
+
+def _ask_to_pause(store: Store, plan: SweepPlan, *, phis, runs) -> None:
+    """Ask the φ pre-trainings and imitations of the Ray tasks still at work to checkpoint and stop (a collection or
+    warm-up at work is not asked: it ends, and the stage it hands to is asked at the next poll)."""
+    for name in [plan.phi_name(*phi) for phi in phis] + [plan.names(run)["policy"] for run in runs]:
+        store.runs.request_pause(name, missing_ok=True)
 
 
 def _live_status(store: Store, plan: SweepPlan, run: SweepRun) -> str | None:
