@@ -104,6 +104,13 @@ def test_a_folder_without_the_plans_curves_is_one_clear_line(cli, tmp_path, setu
     assert cli("report", "tiny", "--curves", curves).output.count("give the plan file") == 1
 
 
+@pytest.mark.parametrize("curves", [False, True])
+def test_a_misspelt_plan_file_is_named_as_a_missing_file_not_as_a_missing_report(cli, store, tmp_path, curves):
+    result = cli("report", tmp_path / "tny.toml", *(["--curves", tmp_path] if curves else []))
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert f"no plan file {tmp_path / 'tny.toml'}" in result.output and "report artifact" not in result.output
+
+
 RUNNING_PLAN = PLAN.replace("seeds = [0, 1]", "seeds = [0]").replace("train.steps=1000", "train.steps=10000")
 
 

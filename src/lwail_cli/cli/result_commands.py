@@ -171,8 +171,9 @@ def report(
     """A sweep's report: per task and arm over seeds mean ± std, IQM with a 95% bootstrap interval and % of our
     expert; across tasks the IQM and a performance profile; curves; then where each unfinished run stands. From the
     store, or with --curves from committed curve files alone (a running run's as <...>_seed<S>_to<N>k.csv)."""
+    names_a_file = Path(sweep_ref).is_file() or sweep_ref.endswith(".toml")  # a missing plan file gets read_plan's error
     if curves is not None:
-        if not Path(sweep_ref).is_file():
+        if not names_a_file:
             raise LwailError(f"--curves reads no store: give the plan file (e.g. plans/paper-table.toml), not {sweep_ref!r}")
         plan = read_plan(Path(sweep_ref))
         unfinished = progress.unfinished_in_folder(plan=plan, folder=curves)
@@ -189,7 +190,7 @@ def report(
             typer.echo(progress.markdown(plan, unfinished))
         return
     s = store()
-    if Path(sweep_ref).is_file():
+    if names_a_file:
         plan = read_plan(Path(sweep_ref))
     else:
         plan = plan_from_dict(s.resolve(sweep_ref, "report").config, f"report {sweep_ref}")

@@ -156,6 +156,8 @@ def grid_lines(plan: SweepPlan) -> list[str]:
 def read_plan(path: Path) -> SweepPlan:
     try:
         raw = tomllib.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise LwailError(f"no plan file {path}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise LwailError(f"cannot read the plan {path}: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
