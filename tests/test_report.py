@@ -52,6 +52,47 @@ def test_the_iqm_of_a_known_table_and_its_interval():
     assert many[1] - many[0] < few[1] - few[0]  # more seeds, a narrower interval
 
 
+def test_one_arm_against_another_a_known_difference_interval_and_probability_of_improvement():
+    from lwail_cli import statistics
+
+    x, y = np.array([3.0, 4.0, 5.0]), np.array([1.0, 2.0, 4.0])
+    # 7 of the 9 pairs have x above, one tie counts half
+    assert statistics.probability_of_improvement(x, y) == pytest.approx(7.5 / 9)
+    # Welch: difference 5/3, standard error √(1/3 + 7/9), 3.45 degrees of freedom
+    assert statistics.mean_difference_interval(x, y) == pytest.approx((-1.454, 4.788), abs=1e-3)
+    assert all(np.isnan(statistics.mean_difference_interval(x, y[:1])))  # one run: no interval
+    # across tasks each task weighs the same: a task won in every pair and one lost in every pair average to a half
+    # (no resample changes either order, so the interval is a point)
+    assert statistics.mean_probability_of_improvement([(x + 10, y), (x, y + 10)]) == (0.5, 0.5, 0.5)
+    p, low, high = statistics.mean_probability_of_improvement([(x, y)])  # resamples of overlapping runs spread it
+    assert p == pytest.approx(7.5 / 9) and 0.3 < low < p and high == 1.0
+
+
+def test_the_first_arm_against_the_other_separates_where_its_interval_excludes_zero():
+    import tomllib
+
+    from lwail_cli.stages.report_tables import RunCurve, markdown, tables
+    from lwail_cli.stages.sweep_plan import plan_from_dict
+
+    text = PLAN.replace("seeds = [0, 1]", "seeds = [0, 1, 2]").replace('tasks = ["InvertedPendulum-v5"]', 'tasks = ["InvertedPendulum-v5", "Hopper-v5"]')
+    plan = plan_from_dict(tomllib.loads(text), "test plan")
+    scores = {("InvertedPendulum-v5", "icvf"): [90, 95, 100], ("InvertedPendulum-v5", "identity"): [40, 50, 60],
+              ("Hopper-v5", "icvf"): [50, 60, 70], ("Hopper-v5", "identity"): [55, 65, 45]}
+
+    def curve(score):
+        return pd.DataFrame({"step": range(100, 1001, 100), "wall_time": 60.0, "return_mean": 2.0 * score, "normalized_score": float(score)})
+
+    curves = [RunCurve(run, curve(scores[run.task, run.arm][run.seed]), 200.0, "test") for run in plan.runs]
+    lines = markdown(tables(plan, curves)).splitlines()
+    rows = {line.split(" | ")[0].lstrip("| "): line for line in lines if "| no embedding | 3 vs 3 |" in line or "| 6 vs 6 |" in line}
+    # InvertedPendulum: 95 − 50 with Welch's interval (variances 25 and 100, 2.94 degrees of freedom); won in all 9 pairs
+    assert rows["InvertedPendulum-v5"].startswith("| InvertedPendulum-v5 | no embedding | 3 vs 3 | +45.0 [24.")
+    assert rows["InvertedPendulum-v5"].endswith("| 1.00 [1.00, 1.00] | first higher |")
+    # Hopper: 60 − 55, an interval across 0; 6 of 9 pairs won
+    assert " | +5.0 [-" in rows["Hopper-v5"] and rows["Hopper-v5"].endswith("| no |") and "| 0.67 [" in rows["Hopper-v5"]
+    assert "| all tasks | no embedding | 6 vs 6 | — | — | 0.83 [" in rows["all tasks"]
+
+
 def test_a_performance_profile_counts_the_runs_above_each_threshold_each_task_weighing_the_same():
     from lwail_cli import statistics
 
@@ -87,6 +128,8 @@ def test_the_report_is_rebuilt_from_committed_curve_files(cli, tmp_path):
     assert "| InvertedPendulum-v5 | icvf | 2 | 1,000 | 80.0 ± 14.1 | 80.0 [70.0, 90.0] | 70.0 | 80.0 ± 14.1 | 72.0 ± 5.7 |" in lines
     assert "| InvertedPendulum-v5 | icvf | 0 | 90.0 | 90.0 | 76.0 | 60.0 (600) | 90.0 (1k) | 1 of 5 | 90.0 | 2 min, 10 |" in lines
     assert "| icvf | 1 | 2 | 80.0 [70.0, 90.0] | 80.0 [70.0, 90.0] |" in lines and "| no embedding | 1 | 1 | 50.0 | 50.0 |" in lines
+    # icvf against the identity's one finished seed: a difference and P, no interval, no verdict
+    assert "| InvertedPendulum-v5 | no embedding | 2 vs 1 | +30.0 | +30.0 | 1.00 | — |" in lines
     assert sorted(path.name for path in out.iterdir()) == ["tiny_invertedpendulum-v5_curves.png", "tiny_profile.png"]
 
 
@@ -175,14 +218,14 @@ def test_a_plans_labels_name_its_arms_and_are_checked(tmp_path):
 def test_the_papers_figure_is_an_arms_embedding_kinds_and_demos_without_returns_have_no_percentage():
     import tomllib
 
-    from lwail_cli.stages.report import RunCurve, markdown, tables
+    from lwail_cli.stages.report_tables import RunCurve, markdown, tables
     from lwail_cli.stages.sweep_plan import SweepRun, plan_from_dict
 
     plan = plan_from_dict(tomllib.loads(PLAN.replace("InvertedPendulum-v5", "Walker2d-v5").replace('"icvf", "identity"', '"icvf-authors", "identity"')
                                         + '[variants.icvf-authors]\nkind = "icvf"\n'), "test plan")
     curve = pd.DataFrame({"step": range(100, 1001, 100), "wall_time": 60.0, "return_mean": 1.0, "normalized_score": 50.0})
     curves = [RunCurve(SweepRun("Walker2d-v5", seed, arm), curve, float("nan"), "test") for arm in ("icvf-authors", "identity") for seed in (0, 1)]
-    lines = markdown(*tables(plan, curves)).splitlines()
+    lines = markdown(tables(plan, curves)).splitlines()
     # a variant of icvf is compared with the paper's LWAIL, the identity with its no-embedding figure
     assert lines[4].startswith("| Walker2d-v5 | icvf-authors | 2 | 50.0 ± 0.0 | 50.0 [50.0, 50.0] |") and lines[4].endswith("| 106.5 ± 1.1 |")
     assert lines[5].startswith("| Walker2d-v5 | no embedding | 2 |") and lines[5].endswith("| 62.4 ± 20.4 |")
@@ -196,7 +239,8 @@ def test_a_plan_of_methods_reports_each_arm_and_method_and_names_each_ones_rewar
 
     from lwail_cli import plots
     from lwail_cli.methods import METHODS
-    from lwail_cli.stages.report import RunCurve, draw, tables
+    from lwail_cli.stages.report import draw
+    from lwail_cli.stages.report_tables import RunCurve, tables
     from lwail_cli.stages.sweep_plan import plan_from_dict
 
     text = PLAN.split("[labels]")[0].replace('embeddings = ["icvf", "identity"]', 'embeddings = ["icvf"]\nmethods = ["lwail", "pwil"]')
@@ -204,7 +248,7 @@ def test_a_plan_of_methods_reports_each_arm_and_method_and_names_each_ones_rewar
     curve = pd.DataFrame({"step": range(100, 1001, 100), "wall_time": 60.0, "return_mean": 1.0, "normalized_score": 50.0,
                           "reward_expert_mean": 0.9, "pseudo_reward_mean": 0.5})
     curves = [RunCurve(run, curve.assign(normalized_score=50.0 + 10 * (run.method == "pwil")), 2.0, "test") for run in plan.runs]
-    runs, summary, across = tables(plan, curves)
+    runs, summary, across, _ = tables(plan, curves)
     assert list(zip(summary["arm"], summary["method"], summary["label"])) == [("icvf-lwail", "lwail", "icvf, LWAIL"), ("icvf-pwil", "pwil", "icvf, PWIL")]
     assert list(summary["last_10pct_mean_mean"]) == [50.0, 60.0] and list(across["arm"]) == ["icvf-lwail", "icvf-pwil"]
 

@@ -4,9 +4,12 @@ of the statistical precipice", the estimators of its rliable library), computed 
 
 A stratified bootstrap resamples the runs of each task (a stratum) on their own, with replacement: what scipy's
 bootstrap does with several unpaired samples, one per task. rliable itself is not a dependency: its ``arch``
-dependency fails to import under pandas 3."""
+dependency fails to import under pandas 3. One arm against another: rliable's probability of improvement, and the
+difference of means with Welch's interval."""
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -67,3 +70,34 @@ def _interval(by_task: list[np.ndarray], statistic) -> tuple:
                                 confidence_level=CONFIDENCE, n_resamples=RESAMPLES, rng=np.random.default_rng(BOOTSTRAP_SEED))
     low, high = result.confidence_interval
     return (float(low), float(high)) if np.ndim(low) == 0 else (low, high)
+
+
+def probability_of_improvement(x: np.ndarray, y: np.ndarray, axis: int = -1) -> np.ndarray:
+    """P(X > Y): the share of pairs (a run of X, a run of Y) in which X's scores higher, ties counting half (the
+    probability of improvement of Agarwal et al. 2021, on one task)."""
+    x_runs, y_runs = np.moveaxis(x, axis, -1)[..., :, None], np.moveaxis(y, axis, -1)[..., None, :]
+    return np.mean((x_runs > y_runs) + 0.5 * (x_runs == y_runs), axis=(-2, -1))
+
+
+def mean_probability_of_improvement(by_task: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float]:
+    """P(X > Y) averaged over tasks (each weighing the same), with its 95% stratified-bootstrap interval: each task's
+    runs of each arm resampled on their own (rliable's aggregate probability of improvement)."""
+
+    def statistic(*samples: np.ndarray, axis: int = -1) -> np.ndarray:
+        pairs = zip(samples[::2], samples[1::2])
+        return np.mean([probability_of_improvement(x, y, axis) for x, y in pairs], axis=0)
+
+    samples = [scores for pair in by_task for scores in pair]
+    return (float(statistic(*samples)), *_interval(samples, statistic))
+
+
+def mean_difference_interval(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """The 95% interval of mean(X) − mean(Y) by Welch's t (unequal variances): with 2 or 3 seeds an arm, a percentile
+    bootstrap, which resamples only those few values, would be narrower than the evidence allows. (nan, nan) where an
+    arm has fewer than two runs or a run has no score."""
+    if min(len(x), len(y)) < 2 or np.isnan(x).any() or np.isnan(y).any():
+        return float("nan"), float("nan")
+    with warnings.catch_warnings():  # runs of equal scores: scipy warns of its moments, the interval is still right
+        warnings.simplefilter("ignore", RuntimeWarning)
+        interval = _stats().ttest_ind(x, y, equal_var=False).confidence_interval(CONFIDENCE)
+    return float(interval.low), float(interval.high)

@@ -19,7 +19,8 @@ import pandas as pd
 from ..errors import LwailError
 from ..learning_curve import LAST_FRACTION, SATURATION_STEP, WASSERSTEIN, saturated_critic
 from ..loaders import live_curve, read_curve_file
-from .report import RunCurve, curve_file_name, figure_text, run_steps, step_label
+from .report import curve_file_name
+from .report_tables import RunCurve, figure_text, run_steps, step_label
 from .shared import bundled_experts
 
 if TYPE_CHECKING:
