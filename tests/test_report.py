@@ -91,6 +91,9 @@ def test_the_first_arm_against_the_other_separates_where_its_interval_excludes_z
     # Hopper: 60 − 55, an interval across 0; 6 of 9 pairs won
     assert " | +5.0 [-" in rows["Hopper-v5"] and rows["Hopper-v5"].endswith("| no |") and "| 0.67 [" in rows["Hopper-v5"]
     assert "| all tasks | no embedding | 6 vs 6 | — | — | 0.83 [" in rows["all tasks"]
+    # the title names the first arm even where another arm's runs come first in the tables
+    later = [entry for entry in curves if (entry.run.task, entry.run.arm) != ("InvertedPendulum-v5", "icvf")]
+    assert "**icvf against each other arm**" in markdown(tables(plan, later))
 
 
 def test_a_performance_profile_counts_the_runs_above_each_threshold_each_task_weighing_the_same():

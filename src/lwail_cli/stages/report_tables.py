@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
-import numpy as np
 import pandas as pd
 
 from .. import statistics
@@ -115,13 +114,14 @@ def against_first(runs: pd.DataFrame, first: str) -> pd.DataFrame:
     scores over seeds (first − other), normalized and in % of our expert, with Welch's interval, and P(first > other)
     with its interval; over those tasks (two or more), P(first > other) averaged, each task weighing the same."""
     rows, mine = [], runs[runs["arm"] == first]
+    first_label = mine["label"].iloc[0] if len(mine) else first
     for other, theirs in runs[runs["arm"] != first].groupby("arm", sort=False):
         pairs = []
         for task, their_runs in theirs.groupby("task", sort=False):
             my_runs = mine[mine["task"] == task]
             if my_runs.empty:
                 continue
-            row = {"task": task, "arm": other, "label": their_runs["label"].iloc[0], "seeds_first": len(my_runs), "seeds_other": len(their_runs)}
+            row = {"task": task, "first": first_label, "arm": other, "label": their_runs["label"].iloc[0], "seeds_first": len(my_runs), "seeds_other": len(their_runs)}
             for scale in ("", EXPERT_PCT):
                 x, y = my_runs[SCORE + scale].to_numpy(float), their_runs[SCORE + scale].to_numpy(float)
                 row[f"difference{scale}"] = x.mean() - y.mean()
@@ -131,7 +131,7 @@ def against_first(runs: pd.DataFrame, first: str) -> pd.DataFrame:
             rows.append(row)
         if len(pairs) > 1:
             p, low, high = statistics.mean_probability_of_improvement(pairs)
-            rows.append({"task": "all tasks", "arm": other, "label": theirs["label"].iloc[0], "seeds_first": sum(len(x) for x, _ in pairs),
+            rows.append({"task": "all tasks", "first": first_label, "arm": other, "label": theirs["label"].iloc[0], "seeds_first": sum(len(x) for x, _ in pairs),
                          "seeds_other": sum(len(y) for _, y in pairs), "p_first_higher": p, "p_ci_low": low, "p_ci_high": high})
     return pd.DataFrame(rows)
 
@@ -194,13 +194,13 @@ def markdown(report: Tables) -> str:
             f"{figure_text(row.second_half_mean)} | {figure_text(row.second_half_min)} ({_step(row.second_half_min_step)}) | "
             f"{figure_text(row.best)} ({_step(row.best_step)}) | {falls} | {figure_text(row.last_10pct_mean_expert_pct)} | "
             f"{row.wall_time_s / 60:.0f} min, {row.env_steps_per_s:.0f} |")
-    against = _against_table(report.against, summary["label"].iloc[0], last) if not report.against.empty else []
+    against = _against_table(report.against, last) if not report.against.empty else []
     return "\n\n".join("\n".join(table) for table in (normalized, in_pct, aggregate, against, per_run) if table) + "\n"
 
 
-def _against_table(against: pd.DataFrame, first: str, last: str) -> list[str]:
+def _against_table(against: pd.DataFrame, last: str) -> list[str]:
     level = f"{statistics.CONFIDENCE:.0%}"
-    lines = [f"**{first} against each other arm** (per task: the difference of the {last} means over seeds, first − "
+    lines = [f"**{against['first'].iloc[0]} against each other arm** (per task: the difference of the {last} means over seeds, first − "
              f"other, with Welch's {level} t-interval, which allows for how few seeds there are; *separates*: that "
              f"interval excludes 0. *P(first > other)*: the share of seed pairs in which the first arm's run scored "
              f"higher, ties counting half (the probability of improvement of Agarwal et al. 2021), with its {level} "
