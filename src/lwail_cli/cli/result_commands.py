@@ -169,8 +169,9 @@ def report(
     out: Optional[Path] = typer.Option(None, "--out", metavar="DIR", help="With --curves: the folder for the figures (default: the --curves folder)."),
 ) -> None:
     """A sweep's report: per task and arm over seeds mean ± std, IQM with a 95% bootstrap interval and % of our
-    expert; across tasks the IQM and a performance profile; curves; then where each unfinished run stands. From the
-    store, or with --curves from committed curve files alone (a running run's as <...>_seed<S>_to<N>k.csv)."""
+    expert; across tasks the IQM and a performance profile; the plan's first arm against each other (the difference
+    with Welch's 95% interval, the probability of improvement); curves; then where each unfinished run stands. From
+    the store, or with --curves from committed curve files alone (a running run's as <...>_seed<S>_to<N>k.csv)."""
     names_a_file = Path(sweep_ref).is_file() or sweep_ref.endswith(".toml")  # a missing plan file gets read_plan's error
     if curves is not None:
         if not names_a_file:
