@@ -85,8 +85,6 @@ def curve_file_name(plan: SweepPlan, run: SweepRun) -> str:
     return f"{plan.name}_{run.task.lower()}_{run.arm}_seed{run.seed}.csv"
 
 
-
-
 def _demos_return(store: Store, policy: Artifact) -> float:
     """The mean return of the demonstrations the run imitated: "% of the expert" is the fair yardstick where the
     D4RL reference returns come from older versions of a task (v2 where lwail runs v5)."""

@@ -122,11 +122,11 @@ def against_first(runs: pd.DataFrame, first: str) -> pd.DataFrame:
             if my_runs.empty:
                 continue
             row = {"task": task, "first": first_label, "arm": other, "label": their_runs["label"].iloc[0], "seeds_first": len(my_runs), "seeds_other": len(their_runs)}
-            for scale in ("", EXPERT_PCT):
-                x, y = my_runs[SCORE + scale].to_numpy(float), their_runs[SCORE + scale].to_numpy(float)
+            scores = {scale: (my_runs[SCORE + scale].to_numpy(float), their_runs[SCORE + scale].to_numpy(float)) for scale in ("", EXPERT_PCT)}
+            for scale, (x, y) in scores.items():
                 row[f"difference{scale}"] = x.mean() - y.mean()
                 row[f"difference_ci_low{scale}"], row[f"difference_ci_high{scale}"] = statistics.mean_difference_interval(x, y)
-            pairs.append((my_runs[SCORE].to_numpy(float), their_runs[SCORE].to_numpy(float)))
+            pairs.append(scores[""])  # P is the same on either scale: both order the runs by return
             row["p_first_higher"], row["p_ci_low"], row["p_ci_high"] = statistics.mean_probability_of_improvement(pairs[-1:])
             rows.append(row)
         if len(pairs) > 1:
