@@ -38,7 +38,8 @@ def test_an_imitation_record_holds_the_running_methods_settings_alone(method):
     every other method's records, and the sweeps that fingerprint them, as they were."""
     config = cfg.ImitationConfig(method=method)
     record = cfg.to_dict(config)
-    assert {name for name in cfg.METHODS if name in record} == ({method} - {"lwail"})  # lwail's settings are top-level
+    # lwail's settings are top-level; OPOLO's reward is GAIfO's D, so it reads gaifo.* too
+    assert {name for name in cfg.METHODS if name in record} == ({method} - {"lwail"}) | ({"gaifo"} if method == "opolo" else set())
     assert ("update_every" in record) == ("update_steps" in record) == (method in cfg.ADVERSARIAL)
     assert {"env", "td3", "train", "method", "expert_episodes"} <= set(record)
     assert cfg.from_dict(cfg.ImitationConfig, record) == config
@@ -147,7 +148,8 @@ def test_every_field_lwail_0_3_did_not_have_says_since_when():
     assert set(layout_0_3) == set(cfg.STAGES)
     for stage, config_class in cfg.STAGES.items():
         assert sorted(path for path, since in _leaves(config_class) if not since) == sorted(layout_0_3[stage]), stage
-    assert [path for path, since in _leaves(cfg.ImitationConfig) if since] == [f"bco.{f.name}" for f in dataclasses.fields(cfg.BcoConfig)]
+    assert [path for path, since in _leaves(cfg.ImitationConfig) if since] == [
+        f"{method}.{f.name}" for method, config in (("bco", cfg.BcoConfig), ("opolo", cfg.OpoloConfig)) for f in dataclasses.fields(config)]
 
 
 def test_the_record_of_0_3_holds_every_section_read_or_not_and_none_added_since():
@@ -158,4 +160,6 @@ def test_the_record_of_0_3_holds_every_section_read_or_not_and_none_added_since(
     # a setting added since, unread by this method, leaves the record alone; read with another value, no 0.3 run matches
     assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["bco.lr=0.01"])) == as_0_3
     assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["method=bco", "bco.lr=0.01"])) is None
+    assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["opolo.alpha=0.5"])) == as_0_3
+    assert cfg.recorded_by_0_3(cfg.with_overrides(lwail, ["method=opolo", "opolo.alpha=0.5"])) is None
     assert cfg.recorded_by_0_3(cfg.EmbedConfig(kind="icvf")).keys() == {"kind", "icvf", "infonce", "curl"}

@@ -21,8 +21,8 @@ MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps tak
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
-METHODS = ("lwail", "gaifo", "pwil", "bco")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
-ADVERSARIAL = ("lwail", "gaifo")  # the methods whose adversary trains on the update_every schedule (imitation.AdversarialReward)
+METHODS = ("lwail", "gaifo", "pwil", "bco", "opolo")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
+ADVERSARIAL = ("lwail", "gaifo", "opolo")  # the methods whose adversary trains on the update_every schedule (imitation.AdversarialReward)
 
 
 # ------------------------------------------------------------------------------ shared sections
@@ -202,13 +202,19 @@ class PwilConfig(Validated):
 
 
 @dataclass(frozen=True)
-class BcoConfig(Validated):
-    """BCO(α): an inverse-dynamics model on data set I's actions, then behaviour cloning of the actions it infers for
-    the demo, in rounds while the policy interacts (methods/bco.py; OPOLO's td3bco.py and idm.py)."""
+class InverseDynamicsSettings(Validated):
+    """The inverse-dynamics model g of BCO and OPOLO (inverse_dynamics.py; OPOLO's idm.py), each method's own copy."""
 
     idm_hidden: tuple[int, ...] = setting((256, 256), "hidden widths of the inverse-dynamics model (tanh), the reference's", low=1, high=4096)
     idm_lr: float = setting(3e-4, "Adam learning rate of the inverse-dynamics model (the reference's)", low=1e-7, high=1.0)
     idm_weight_decay: float = setting(1e-3, "weight of the L2 term ½·Σw² over the model's weights and biases, added to its loss (the reference's)", low=0.0, high=10.0)
+
+
+@dataclass(frozen=True)
+class BcoConfig(InverseDynamicsSettings):
+    """BCO(α): an inverse-dynamics model on data set I's actions, then behaviour cloning of the actions it infers for
+    the demo, in rounds while the policy interacts (methods/bco.py; OPOLO's td3bco.py and idm.py)."""
+
     lr: float = setting(1e-3, "Adam learning rate of the cloned policy (the reference's MuJoCo learning_rate)", low=1e-7, high=1.0)
     batch_size: int = setting(100, "transitions per gradient step of the model, demo pairs per step of the policy (the reference's)", low=1, high=65_536)
     pretrain_steps: int = setting(1_000, "gradient steps of the model on data set I before the policy is first cloned (the reference's 100/α)", low=0, high=MAX_STEPS)
@@ -219,20 +225,35 @@ class BcoConfig(Validated):
 
 
 @dataclass(frozen=True)
+class OpoloConfig(InverseDynamicsSettings):
+    """OPOLO: TD3's critic and actor on OPOLO's objective, the reward GAIfO's, the policy pulled toward the actions an
+    inverse-dynamics model infers for the demo (methods/opolo.py; OPOLO's td3opolo.py and its Hopper hyperparameters)."""
+
+    alpha: float = setting(0.01, "weight α of the initial-value term 2α(1−γ)·E[min Q(s, π(s))], added to the critic's loss and subtracted from the actor's (the reference's Hopper value; 0.1 its default)", low=0.0, high=1e3)
+    regularization: float = setting(0.01, "weight of the actor's mean squared error, in [-1, 1] units, to the actions g infers for demo pairs (the reference's Hopper pi_reg_coeff)", low=0.0, high=1e3)
+    batch_size: int = setting(100, "transitions per gradient step of the inverse-dynamics model (the reference's)", low=1, high=65_536)
+    pretrain_steps: int = setting(2_500, "gradient steps of the model on data set I before the first env step (the reference's 50 × 50 at its learning start)", low=0, high=MAX_STEPS)
+    interval: int = setting(500, "env steps between rounds of the model's updates (the reference's train_idm_freq)", low=1, high=MAX_STEPS)
+    idm_steps: int = setting(50, "gradient steps of the model per round, on data set I and every transition played so far (the reference's)", low=0, high=100_000)
+
+
+@dataclass(frozen=True)
 class ImitationConfig(Validated):
     env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
-    method: str = setting("lwail", "the imitation method: lwail (σ(−f), needs --disc), gaifo or pwil (TD3 on their reward), or bco (its own loop) (docs/algorithm.md)", choices=METHODS)
-    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo)", low=1, high=MAX_STEPS,
+    method: str = setting("lwail", "the imitation method: lwail (σ(−f), needs --disc), gaifo or pwil (TD3 on their reward), opolo (TD3 on OPOLO's objective with GAIfO's reward) or bco (its own loop) (docs/algorithm.md)", choices=METHODS)
+    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo, opolo)", low=1, high=MAX_STEPS,
                                  used_when=("method", ADVERSARIAL))
     update_steps: int = setting(40, "full-batch steps of f or D per update (paper: 40, authors' code: 30)", low=0, high=100_000,
                                  used_when=("method", ADVERSARIAL))
     expert_episodes: int = setting(1, "expert trajectories to imitate", low=1, high=10_000)
-    gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (method gaifo)", used_when=("method", ("gaifo",)))
+    gaifo: GaifoConfig = section(GaifoConfig, "GAIfO's discriminator (methods gaifo and opolo)", used_when=("method", ("gaifo", "opolo")))
     pwil: PwilConfig = section(PwilConfig, "PWIL's reward (method pwil)", used_when=("method", ("pwil",)))
     bco: BcoConfig = section(BcoConfig, "BCO's inverse-dynamics model and cloned policy (method bco)", used_when=("method", ("bco",)),
                              since="0.4")
+    opolo: OpoloConfig = section(OpoloConfig, "OPOLO's objective and inverse-dynamics model (method opolo)", used_when=("method", ("opolo",)),
+                                 since="0.4")
 
 
 @dataclass(frozen=True)

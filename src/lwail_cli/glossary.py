@@ -29,10 +29,10 @@ METRICS: dict[str, str] = {
     **{column: f"mean reward {pairs}: the run's method's ({_REWARDS}; at warm-up LWAIL's σ(−f))" for column, pairs in curve.REWARDS.items()},
     curve.DISCRIMINATOR_LOSS: "GAIfO's discriminator D at its last update: its binary cross-entropy, expert pairs labelled 1 "
                               "and the latest policy pairs 0 (2·log 2 ≈ 1.39: D cannot tell them apart; near 0: it always can)",
-    curve.IDM_LOSS: "BCO's inverse-dynamics model at its last step: the mean squared error of the actions it infers from "
+    curve.IDM_LOSS: "BCO's or OPOLO's inverse-dynamics model at its last step: the mean squared error of the actions it infers from "
                     "(s, s') pairs, in [-1, 1] action units (data set I's and the played transitions')",
-    curve.BC_LOSS: "BCO's cloned policy at its last step: the mean squared error of its actions against those the inverse-"
-                   "dynamics model infers for the demo's pairs, in [-1, 1] action units",
+    curve.BC_LOSS: "the policy's mean squared error against the actions the inverse-dynamics model infers for the demo's "
+                   "pairs, in [-1, 1] action units, at its last step (BCO: its cloning loss; OPOLO: its regulariser, before its weight)",
     curve.PSEUDO_RETURN_SPEARMAN: "rank correlation (Spearman) of each evaluation episode's summed reward with its true return "
                                   "(1: the method's reward ranks the episodes as the task does)",
     curve.PSEUDO_REWARD_STD: "the spread (std) of the reward over the latest policy pairs (LWAIL, GAIfO: at the last update; "

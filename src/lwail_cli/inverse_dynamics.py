@@ -1,6 +1,7 @@
-"""BCO's two regressions (methods/bco.py): an inverse-dynamics model that infers the action of a state pair, and
-behaviour cloning of a policy on the actions it infers. We follow OPOLO's ``stable_baselines/gail/idm.py``
-(``InverseModel``) and ``td3/td3bco.py`` (``_train_policy``); docs/algorithm.md, "Baselines in the same harness".
+"""The inverse-dynamics model g that infers the action of a state pair, what it is trained on, and behaviour cloning
+of a policy on the actions it infers: BCO's two regressions (methods/bco.py) and OPOLO's regulariser (methods/opolo.py).
+We follow OPOLO's ``stable_baselines/gail/idm.py`` (``InverseModel``) and ``td3/td3bco.py`` (``_train_policy``);
+docs/algorithm.md, "Baselines in the same harness".
 
 Actions are regressed in [-1, 1] units, ``(a − offset) / scale`` of the actor's bounds, as the reference scales them.
 """
@@ -12,10 +13,13 @@ from typing import TYPE_CHECKING
 import torch
 from torch import nn
 
+from .discriminator import transition_features
 from .nets import mlp
 
 if TYPE_CHECKING:
-    from .config import BcoConfig
+    from .config import InverseDynamicsSettings
+    from .icvf import Encoder
+    from .replay import ReplayBuffer
     from .td3 import Actor
 
 STD_FLOOR = 1e-2  # the reference's RunningMeanStd: no input is divided by a spread below √0.01 = 0.1
@@ -58,7 +62,7 @@ class InverseDynamics:
 
     FILE = "inverse_dynamics.safetensors"
 
-    def __init__(self, width: int, act_dim: int, config: BcoConfig, device: torch.device):
+    def __init__(self, width: int, act_dim: int, config: InverseDynamicsSettings, device: torch.device):
         self.model = mlp(width, config.idm_hidden, act_dim, activation=nn.Tanh).to(device)
         self.standardize = RunningStandardizer(width, device)
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=config.idm_lr)
@@ -70,6 +74,11 @@ class InverseDynamics:
         """The action, in [-1, 1] units, of each pair."""
         return self.model(self.standardize(features))
 
+    def fit(self, pairs: LabelledPairs, steps: int, buffer: ReplayBuffer | None) -> None:
+        """``steps`` gradient steps on batches of ``pairs`` (data set I alone when ``buffer`` is None)."""
+        for _ in range(steps):
+            self.step(*pairs.sample(buffer))
+
     def step(self, features: torch.Tensor, actions: torch.Tensor) -> None:
         """One gradient step on a batch of pair features and the actions taken between them ([-1, 1] units)."""
         self.standardize.update(features)
@@ -80,6 +89,11 @@ class InverseDynamics:
         self.optimizer.step()
         self.last_loss = error.detach()
 
+    def weights(self) -> dict[str, dict]:
+        """The file a policy artifact keeps g in: its weights with its running statistics (``standardize.*``)."""
+        return {self.FILE: self.model.state_dict()
+                | {f"standardize.{name}": tensor for name, tensor in self.standardize.state_dict().items()}}
+
     def state_dict(self) -> dict:
         return {"model": self.model.state_dict(), "optimizer": self.optimizer.state_dict(),
                 "standardize": self.standardize.state_dict(), "last_loss": self.last_loss}
@@ -89,6 +103,38 @@ class InverseDynamics:
         self.optimizer.load_state_dict(state["optimizer"])
         self.standardize.load_state_dict(state["standardize"])
         self.last_loss = state["last_loss"]
+
+
+class LabelledPairs:
+    """What g is trained on: data set I's pairs with the random policy's actions, and every transition the run has
+    played, drawn uniformly from both (the reference's replay buffer holds its random steps, then the policy's)."""
+
+    def __init__(self, encoder: Encoder, observations: torch.Tensor, actions: torch.Tensor, next_observations: torch.Tensor,
+                 actor: Actor, batch_size: int):
+        """g reads a pair as the frozen ``encoder``'s features ``[φ(s), φ(s') − φ(s)]``; the actions are in the env's bounds."""
+        self.encoder, self.actor, self.batch_size = encoder, actor, batch_size
+        self.data_features = self.features(observations, next_observations)
+        self.data_actions = unit_actions(actor, actions)
+
+    @torch.no_grad()
+    def features(self, states: torch.Tensor, next_states: torch.Tensor) -> torch.Tensor:
+        return transition_features(self.encoder, states, next_states)
+
+    def sample(self, buffer: ReplayBuffer | None) -> tuple[torch.Tensor, torch.Tensor]:
+        """A batch of pair features and their [-1, 1] actions from data set I and the transitions ``buffer`` holds."""
+        known = len(self.data_actions)
+        played = 0 if buffer is None else buffer.size
+        index = torch.randint(0, known + played, (self.batch_size,), device=self.data_actions.device)
+        first = index.clamp(max=known - 1)  # the rows drawn from data set I (the others are replaced below)
+        features, actions = self.data_features[first], self.data_actions[first]
+        if played:
+            buffer.flush()
+            mine = index >= known
+            rows = index[mine] - known
+            storage = buffer.storage
+            features[mine] = self.features(storage["observations"][rows], storage["next_observations"][rows])
+            actions[mine] = unit_actions(self.actor, storage["actions"][rows])
+        return features, actions
 
 
 class BehaviourCloning:

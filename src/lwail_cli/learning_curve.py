@@ -31,8 +31,8 @@ PSEUDO_REWARD_STD, REWARD_SLOPE, CRITIC_SHIFT = "pseudo_reward_std", "reward_slo
 # what TD3's critic expects the evaluated policy to earn, min over its twins of Q(s, π(s)), over the states of the
 # evaluation's episodes: its mean, and its spread (a flat reward leaves a Q that cannot tell states apart either)
 Q_POLICY_MEAN, Q_POLICY_STD = "q_policy_mean", "q_policy_std"
-# BCO's two regressions at their last gradient step (methods/bco.py): the inverse-dynamics model's squared error on
-# the actions it was trained on, and the cloned policy's on the actions inferred for the demo (both in [-1, 1] units)
+# the inverse-dynamics model's squared error at its last step on the actions it was trained on, and the policy's on
+# the actions it infers for the demo (both in [-1, 1] units): BCO's two regressions, OPOLO's model and regulariser
 IDM_LOSS, BC_LOSS = "idm_loss", "bc_loss"
 SUCCESS_RATE = "success_rate"  # tasks whose env reports info["success"] (the mazes): the episodes that reached the goal
 

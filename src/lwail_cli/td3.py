@@ -102,15 +102,14 @@ class TD3:
             next_q = self.critic_target(torch.cat([next_obs, next_actions], 1)).amin(0)
             target = batch["rewards"] + cfg.gamma * batch["not_terminated"] * next_q
         q = self.critic(torch.cat([obs, actions], 1))
-        critic_loss = (q - target).square().mean(dim=(1, 2)).sum()
+        critic_loss = self.critic_loss(obs, q, target)
         self.critic_optimizer.zero_grad(set_to_none=True)
         critic_loss.backward()
         self.critic_optimizer.step()
         self.last_critic_loss = critic_loss.detach()
         self.updates += 1
         if self.updates % cfg.policy_delay == 0:
-            q_first = self.critic(torch.cat([obs, self.actor(obs)], 1), members=slice(0, 1), detach=True)
-            actor_loss = -q_first.mean()
+            actor_loss = self.actor_loss(obs)
             self.actor_optimizer.zero_grad(set_to_none=True)
             actor_loss.backward()
             self.actor_optimizer.step()
@@ -118,6 +117,15 @@ class TD3:
                 torch._foreach_lerp_(self._followers, self._leaders, cfg.tau)
                 if self.actor_average is not None:
                     torch._foreach_lerp_(list(self.actor_average.parameters()), list(self.actor.parameters()), self.average_tau)
+
+    def critic_loss(self, obs: torch.Tensor, q: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """The twin critics' loss given their values ``q`` of the batch's (s, a) and the TD ``target``: the sum of
+        their mean squared errors (a method that changes TD3's objective overrides this and ``actor_loss``)."""
+        return (q - target).square().mean(dim=(1, 2)).sum()
+
+    def actor_loss(self, obs: torch.Tensor) -> torch.Tensor:
+        """−Q₁(s, π(s)) over the batch, read through the critic's detached weights."""
+        return -self.critic(torch.cat([obs, self.actor(obs)], 1), members=slice(0, 1), detach=True).mean()
 
     def state_dict(self) -> dict:
         return {

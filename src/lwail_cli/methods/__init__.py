@@ -5,8 +5,9 @@ Every method is built from the same ``base.Inputs`` — the frozen embedding φ 
 pair features ``[φ(s), φ(s') − φ(s)]``, the replay capacity. A reward learner (LWAIL, GAIfO, PWIL: ``Method.build``)
 becomes a ``base.Learner``: a ``training.RewardModel`` the loop asks for rewards (``prepare``), tells when an episode
 ends, evaluates (``metrics``) and checkpoints (``state_dict``) without knowing which it is. A method with a loop of its
-own (BCO, which clones a policy instead of rewarding TD3: ``Method.train``) gets the run's ``base.Session`` too and
-hands back the ``base.Trained`` policy; it plays, evaluates and checkpoints through the same ``training.online_loop``.
+own (BCO, which clones a policy instead of rewarding TD3; OPOLO, TD3 with its own objective and inverse-dynamics model:
+``Method.train``) gets the run's ``base.Session`` too and hands back the ``base.Trained`` policy; it plays, evaluates
+and checkpoints through the same ``training.online_loop``.
 So a method is one axis and the embedding another; every method shares the demo, the seed streams, the actor's format
 and the evaluation (docs/algorithm.md, "Baselines in the same harness").
 
@@ -19,6 +20,6 @@ a numeric check of what it learns there or in its own file, e.g. ``tests/test_bc
 from __future__ import annotations
 
 from .base import Inputs, Learner, Method, Session, Trained, Transitions  # noqa: F401
-from . import bco, gaifo, lwail, pwil
+from . import bco, gaifo, lwail, opolo, pwil
 
-METHODS: dict[str, Method] = {method.name: method for method in (lwail.METHOD, gaifo.METHOD, pwil.METHOD, bco.METHOD)}
+METHODS: dict[str, Method] = {method.name: method for method in (lwail.METHOD, gaifo.METHOD, pwil.METHOD, bco.METHOD, opolo.METHOD)}

@@ -90,6 +90,7 @@ class Method:
     build: Callable[[Inputs], Learner] | None = None  # the reward learner the TD3 loop runs, or
     train: Callable[[Inputs, Session], Trained] | None = None  # a loop of its own, run instead of TD3's
     reads_actions: bool = False  # learns from data set I's actions: a data set without them is refused up front
+    trains_td3: bool = True  # its policy is TD3's actor, so td3.random_steps and td3.learning_starts apply (not BCO's)
 
     def __post_init__(self) -> None:
         if (self.build is None) == (self.train is None):

@@ -24,8 +24,7 @@ import numpy as np
 import torch
 
 from .. import learning_curve as curve
-from ..discriminator import transition_features
-from ..inverse_dynamics import BehaviourCloning, InverseDynamics, unit_actions
+from ..inverse_dynamics import BehaviourCloning, InverseDynamics, LabelledPairs
 from ..replay import ReplayBuffer
 from ..td3 import Actor
 from ..training import evaluate_actor, online_loop
@@ -44,21 +43,14 @@ class BehaviouralCloningFromObservation:
         self.actor = Actor.for_env(session.info, config.td3.hidden).to(self.device)
         self.cloning = BehaviourCloning(self.actor, self.bco.lr)
         self.idm = InverseDynamics(inputs.expert.shape[1], session.info.act_dim, self.bco, self.device)
-        self.encoder = inputs.encoder
         data = inputs.dataset
-        self.data_features = self._features(data.observations, data.next_observations)
-        self.data_actions = unit_actions(self.actor, data.actions)
+        self.pairs = LabelledPairs(inputs.encoder, data.observations, data.actions, data.next_observations, self.actor, self.bco.batch_size)
         self.expert, self.expert_states = inputs.expert, inputs.expert_states
         self._evaluation = (session.info.id, session.seed, session.reference, config.env.start_noise)
 
-    @torch.no_grad()
-    def _features(self, states: torch.Tensor, next_states: torch.Tensor) -> torch.Tensor:
-        return transition_features(self.encoder, states, next_states)
-
     def begin(self) -> None:
         """Pre-demonstration: g on data set I alone, then the first cloning."""
-        for _ in range(self.bco.pretrain_steps):
-            self.idm.step(*self._idm_batch(None))
+        self.idm.fit(self.pairs, self.bco.pretrain_steps, None)
         self._clone()
 
     def act(self, obs: np.ndarray, step: int, env: gym.Env, noise: np.random.Generator) -> np.ndarray:
@@ -67,25 +59,8 @@ class BehaviouralCloningFromObservation:
 
     def learn(self, step: int, buffer: ReplayBuffer, ended: bool) -> None:
         if step % self.bco.interval == 0:
-            for _ in range(self.bco.idm_steps):
-                self.idm.step(*self._idm_batch(buffer))
+            self.idm.fit(self.pairs, self.bco.idm_steps, buffer)
             self._clone()
-
-    def _idm_batch(self, buffer: ReplayBuffer | None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Pair features and [-1, 1] actions drawn uniformly from data set I and the transitions ``buffer`` holds."""
-        known = len(self.data_actions)
-        played = 0 if buffer is None else buffer.size
-        index = torch.randint(0, known + played, (self.bco.batch_size,), device=self.device)
-        first = index.clamp(max=known - 1)  # the rows drawn from data set I (the others are replaced below)
-        features, actions = self.data_features[first], self.data_actions[first]
-        if played:
-            buffer.flush()
-            mine = index >= known
-            rows = index[mine] - known
-            storage = buffer.storage
-            features[mine] = self._features(storage["observations"][rows], storage["next_observations"][rows])
-            actions[mine] = unit_actions(self.actor, storage["actions"][rows])
-        return features, actions
 
     def _clone(self) -> None:
         """``bco.bc_steps`` steps of the policy on demo states, each labelled with the action g infers for its pair
@@ -106,11 +81,6 @@ class BehaviouralCloningFromObservation:
     def policy(self) -> torch.nn.Module:
         return self.actor
 
-    def weights(self) -> dict[str, dict]:
-        """g with its running statistics (``standardize.*``), kept beside the actor."""
-        return {InverseDynamics.FILE: self.idm.model.state_dict()
-                | {f"standardize.{name}": tensor for name, tensor in self.idm.standardize.state_dict().items()}}
-
 
 def train(inputs: Inputs, session: Session) -> Trained:
     config, info = inputs.config, session.info
@@ -120,9 +90,9 @@ def train(inputs: Inputs, session: Session) -> Trained:
                         resume=session.resume, on_progress=session.on_progress, on_checkpoint=session.on_checkpoint,
                         on_evaluation=session.on_evaluation, progress_every=session.progress_every, start_noise=config.env.start_noise,
                         stop_requested=session.stop_requested)
-    return Trained(state, agent.actor, agent.weights())
+    return Trained(state, agent.actor, agent.idm.weights())
 
 
 METHOD = Method("bco", "BCO", "BCO: behaviour cloning of the demo's inferred actions", reads_discriminator=False,
                 caches_features=False, reward="none (cloned actions)", train=train,
-                reads_actions=True)
+                reads_actions=True, trains_td3=False)

@@ -75,8 +75,8 @@ def budget_warnings(config: cfg.ExpertConfig | cfg.ImitationConfig) -> list[str]
     checks the chain works is legitimate."""
     steps, td3, train = config.train.steps, config.td3, config.train
     warnings = []
-    # an expert, or a method the TD3 loop runs (a method with its own loop, BCO, reads neither td3 setting)
-    trains_td3 = getattr(config, "method", None) is None or METHODS[config.method].build is not None
+    # an expert, or a method whose policy TD3 trains (BCO's cloned policy reads neither td3 setting)
+    trains_td3 = getattr(config, "method", None) is None or METHODS[config.method].trains_td3
     if trains_td3 and steps < td3.learning_starts:
         warnings.append(f"--steps {steps} is below td3.learning_starts ({td3.learning_starts}): TD3 never updates, the policy "
                         "kept is its untrained initial network")
