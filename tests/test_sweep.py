@@ -517,3 +517,47 @@ def test_a_run_that_lwail_0_3_finished_is_found_under_its_0_3_fingerprint_and_no
     assert sweep._stage(store, plan, run, "imitate", made).ref == finished.ref  # today's entry alone finds it now
     with pytest.raises(AssertionError, match="ran again"):  # another run (seed 1's parents) is not this one
         sweep._stage(store, plan, run, "imitate", {**made, "demos": SimpleNamespace(hash="0" * 64)})
+
+
+def test_only_picks_runs_by_task_seed_and_arm_in_the_plans_order():
+    from lwail_cli.stages.sweep_plan import SweepRun, read_plan, select_runs
+
+    plan = read_plan(PLANS / "mujoco-table.toml")
+    assert select_runs(plan, []) == plan.runs and len(plan.runs) == 24
+    assert select_runs(plan, ["Walker2d-v5:0"]) == [SweepRun("Walker2d-v5", 0, "icvf"), SweepRun("Walker2d-v5", 0, "identity")]
+    assert select_runs(plan, ["Walker2d-v5:*:identity"]) == [SweepRun("Walker2d-v5", seed, "identity") for seed in (0, 1, 2)]
+    # several selectors: their union, each run once, in the plan's order (the default's runs before the identity's)
+    union = select_runs(plan, ["*:1:identity", "Hopper-v5:1", "AntNoContactForces-v5"])
+    assert union == ([SweepRun("Hopper-v5", 1, "icvf")] + [SweepRun("AntNoContactForces-v5", seed, "icvf") for seed in (0, 1, 2)]
+                     + [SweepRun(task, 1, "identity") for task in ("HalfCheetah-v5", "Hopper-v5", "Walker2d-v5")]
+                     + [SweepRun("AntNoContactForces-v5", seed, "identity") for seed in (0, 1, 2)])
+
+
+@pytest.mark.parametrize("selector, message", [
+    ("Walker2d:0", "--only 'Walker2d:0': the plan has no task 'Walker2d'; its tasks: HalfCheetah-v5, Hopper-v5, Walker2d-v5, AntNoContactForces-v5"),
+    ("Hopper-v5:7", "--only 'Hopper-v5:7': the plan has no seed '7'; its seeds: 0, 1, 2"),
+    ("*:0:infonce", "--only '*:0:infonce': the plan has no arm 'infonce'; its arms: icvf, identity"),
+    ("Hopper-v5::icvf", "--only 'Hopper-v5::icvf': give TASK[:SEED[:ARM]]"),
+])
+def test_a_bad_only_is_one_clear_line_before_anything_runs(cli, store, selector, message):
+    result = cli("sweep", PLANS / "mujoco-table.toml", "--only", selector)
+    assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output, result.output
+    assert not committed_versions(store)
+
+
+def test_an_only_sweep_runs_and_collects_for_the_picked_runs_alone_and_dry_run_lists_them(cli, store, monkeypatch):
+    import tomllib
+
+    from lwail_cli.stages import sweep
+    from lwail_cli.stages.sweep_plan import plan_from_dict, select_runs
+
+    plan = plan_from_dict(tomllib.loads((PLANS / "smoke.toml").read_text()), "test plan")
+    picked = select_runs(plan, ["InvertedPendulum-v5:2:identity", "*:1:icvf"])
+    handed = _fake_ray(monkeypatch, at_once=2)
+    assert sweep.run_sweep(store, plan=plan, runs=picked, poll_seconds=0) == []
+    assert [args[2:5] for function, args, _ in handed if function is sweep.run_task] == [
+        ("InvertedPendulum-v5", 1, "icvf"), ("InvertedPendulum-v5", 2, "identity")]
+    assert [args[2:4] for function, args, _ in handed if function is sweep.collect_task] == [("InvertedPendulum-v5", 1), ("InvertedPendulum-v5", 2)]
+    listed = cli("sweep", PLANS / "smoke.toml", "--dry-run", "--only", "*:1:icvf")
+    assert listed.exit_code == 0 and "1 of 6 runs on 1 data sets I and 1 φs" in listed.output, listed.output
+    assert "InvertedPendulum-v5 seed 1 icvf (icvf, lwail)" in listed.output and "seed 0" not in listed.output

@@ -24,7 +24,7 @@ from ..stages import report as report_stage
 from ..stages import reward_map as reward_map_stage
 from ..stages import sweep as sweep_stage
 from ..stages.declaration import PLAN_STAGES
-from ..stages.sweep_plan import grid_lines, plan_from_dict, read_plan
+from ..stages.sweep_plan import grid_lines, plan_from_dict, read_plan, select_runs
 from ..stages.shared import resolve_device
 from .app import DEVICE, SEED, VIDEO, app, command, lwail_line, progress_bar, say_written, store, warn
 
@@ -141,25 +141,29 @@ def sweep(
     plan_file: Path = typer.Argument(..., metavar="PLAN", help="A plan (TOML): name, tasks, seeds, embeddings, methods, [set] overrides per stage and [variants.NAME] arms; see plans/."),
     address: Optional[str] = typer.Option(None, "--address", metavar="HOST:PORT", help="Attach to a running Ray cluster (its nodes must share this store's path); without it the sweep starts its own, whatever RAY_ADDRESS says."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid (each run, its arm's settings) and stop: nothing runs."),
+    only: Optional[list[str]] = typer.Option(None, "--only", metavar="TASK[:SEED[:ARM]]", help="Run only the runs this picks (repeatable; * for any part, e.g. Walker2d-v5:0 or '*:1:identity'); they keep the names and fingerprints the whole plan gives them."),
 ) -> None:
     """Run a grid of tasks × seeds × embeddings × methods (× an [axis]) on Ray (one CPU each), skipping finished stages;
     then report."""
     plan = read_plan(plan_file)
+    runs = select_runs(plan, only or [])
+    chosen = "" if len(runs) == len(plan.runs) else f" of {len(plan.runs)}"
     if dry_run:
-        typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs on {len(plan.data_sets)} data sets I and {len(plan.phis)} φs")
-        typer.echo("\n".join(grid_lines(plan)))
+        data_sets, phis = {(run.task, run.seed) for run in runs}, {plan.phi_of(run) for run in runs}
+        typer.echo(f"sweep {plan.name}: {len(runs)}{chosen} runs on {len(data_sets)} data sets I and {len(phis)} φs")
+        typer.echo("\n".join(grid_lines(plan, runs)))
         return
     s = store()
-    typer.echo(f"sweep {plan.name}: {len(plan.runs)} runs into store {s.root.resolve()}")
+    typer.echo(f"sweep {plan.name}: {len(runs)}{chosen} runs into store {s.root.resolve()}")
 
     def show(status: dict[str, str]) -> None:
         width = max(map(len, status))
         typer.echo("\n".join(f"  {label.ljust(width)}  {line}" for label, line in status.items()) + "\n")
 
-    failures = sweep_stage.run_sweep(s, plan=plan, address=address, on_status=show)
+    failures = sweep_stage.run_sweep(s, plan=plan, runs=runs, address=address, on_status=show)
     _say_report(report_stage.report(s, plan=plan))
     if failures:
-        raise LwailError(f"{len(failures)} of {len(plan.runs)} runs failed ({'; '.join(failures)}); rerun the sweep to retry them")
+        raise LwailError(f"{len(failures)} of {len(runs)} runs failed ({'; '.join(failures)}); rerun the sweep to retry them")
 
 
 @command(app, "report")

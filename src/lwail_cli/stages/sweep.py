@@ -146,9 +146,10 @@ def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
 
 
 # ------------------------------------------------------------------------------ the driver
-def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_status: Callable[[dict[str, str]], None] | None = None,
-              poll_seconds: float = 5.0) -> list[str]:
-    """Run every stage of the plan on Ray; returns the runs that failed (each with its error). ``on_status`` gets
+def run_sweep(store: Store, *, plan: SweepPlan, runs: list[SweepRun] | None = None, address: str | None = None,
+              on_status: Callable[[dict[str, str]], None] | None = None, poll_seconds: float = 5.0) -> list[str]:
+    """Run every stage of the plan's ``runs`` (default all; ``sweep_plan.select_runs``) and what they read on Ray;
+    returns the runs that failed (each with its error). ``on_status`` gets
     one line per run (queued, step and latest normalized score, done or failed) whenever one changes. A first SIGTERM
     or Ctrl-C to the driver pauses the φs and imitations at work (``lwail pause``: checkpointed where they are), waits
     for them and starts nothing more, then raises a line saying so: the same sweep continues them bit for bit."""
@@ -160,8 +161,9 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     cores = os.cpu_count() or 1
     if address is None and plan.threads > cores:  # Ray would queue the runs forever
         raise LwailError(f"the plan gives each run {plan.threads} threads; this machine has {cores} cores")
-    demos = {task: bundled_demos(store, plan, task).ref for task in plan.tasks}  # a file copy: no Ray task needed
-    for run in plan.runs:  # what a killed sweep's runs last said is not what they do now
+    runs = plan.runs if runs is None else runs
+    demos = {task: bundled_demos(store, plan, task).ref for task in dict.fromkeys(run.task for run in runs)}  # a file copy: no Ray task needed
+    for run in runs:  # what a killed sweep's runs last said is not what they do now
         store.runs.clear_sweep_status(plan.name, plan.names(run)["policy"])
     # without an address, a private Ray instance: ray.init(None) would join whatever cluster RAY_ADDRESS or the
     # last `ray start` on this machine names, another user's or a dead one
@@ -171,12 +173,12 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
     try:
         collect_remote, run = ray.remote(num_cpus=1)(collect_task), ray.remote(num_cpus=plan.threads, max_retries=0)(run_task)
         embed_remote = ray.remote(num_cpus=plan.threads, max_retries=0)(embed_task)
-        data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in plan.data_sets}
-        queue = RunQueue(list(plan.runs), places=max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads), phi_of=plan.phi_of)
+        data = {(t, s): collect_remote.remote(root, plan_dict, t, s) for t, s in dict.fromkeys((run.task, run.seed) for run in runs)}
+        queue = RunQueue(list(runs), places=max(1, int(ray.cluster_resources().get("CPU", 1)) // plan.threads), phi_of=plan.phi_of)
         phi: dict = {}  # plan.phis: (task, seed, φ arm) -> its φ, started when the first run reading it is handed out
         making: dict = {}  # a φ in training -> its arm
         pending: dict = {}  # a run given to Ray -> the run
-        status = {r.label: "queued" for r in plan.runs}
+        status = {r.label: "queued" for r in runs}
         failures: list[str] = []
         shown: dict[str, str] = {}
         with asked_on_signals(stop, (signal.SIGTERM, signal.SIGINT)):
@@ -184,11 +186,11 @@ def run_sweep(store: Store, *, plan: SweepPlan, address: str | None = None, on_s
                 if stop.is_set():  # asked again at every poll: a run that opens after the first ask is asked too
                     _ask_to_pause(store, plan, phis=making.values(), runs=pending.values())
                 else:
-                    phis, runs = queue.take()
+                    phis, handed = queue.take()
                     for task, seed, kind in phis:
                         phi[task, seed, kind] = embed_remote.remote(root, plan_dict, task, seed, kind, demos[task], data[(task, seed)])
                         making[phi[task, seed, kind]] = (task, seed, kind)
-                    for r in runs:
+                    for r in handed:
                         pending[run.remote(root, plan_dict, r.task, r.seed, r.kind, demos[r.task], data[(r.task, r.seed)], r.method,
                                            phi[plan.phi_of(r)])] = r
                 watched = [*pending, *making]

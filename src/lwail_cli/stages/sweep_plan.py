@@ -32,7 +32,7 @@ from .declaration import FROM_GRID, PLAN_STAGES, read_table, stage_config
 from .demos import bundled_demos_path
 from .sweep_grid import DEFAULT_METHODS, Grid, SweepRun, along_axis, read_grid
 
-__all__ = ["SweepPlan", "SweepRun", "grid_lines", "plan_from_dict", "read_plan"]
+__all__ = ["SweepPlan", "SweepRun", "grid_lines", "plan_from_dict", "read_plan", "select_runs"]
 
 GRID_KEYS = {"tasks", "seeds", "embeddings", "methods"}
 PLAN_KEYS = {"name", *GRID_KEYS, "also", "set", "variants", "threads", "labels", "axis"}
@@ -142,10 +142,35 @@ class SweepPlan:
                              for name, variant in self.variants.items()}, "threads": self.threads}
 
 
-def grid_lines(plan: SweepPlan) -> list[str]:
-    """The plan as it will run: its overrides, then each run with its embedding kind and its arm's own overrides."""
+def select_runs(plan: SweepPlan, selectors: list[str]) -> list[SweepRun]:
+    """The plan's runs that any of ``selectors`` picks, in the plan's order (all of them without a selector). A
+    selector is ``TASK[:SEED[:ARM]]``, each part a value of the plan's grid or ``*`` (any), e.g. ``Walker2d-v5:0``,
+    ``*:1:identity``; one that picks no run, or names what the plan has not, is refused in one line."""
+    if not selectors:
+        return plan.runs
+    picked: set[SweepRun] = set()
+    for selector in selectors:
+        parts = selector.split(":")
+        if len(parts) > 3 or "" in parts:
+            raise LwailError(f"--only {selector!r}: give TASK[:SEED[:ARM]], each part a value of the plan or * (e.g. Walker2d-v5:0:icvf)")
+        grid = {"task": plan.tasks, "seed": [str(seed) for seed in dict.fromkeys(run.seed for run in plan.runs)], "arm": plan.arms}
+        for (axis, values), part in zip(grid.items(), parts):
+            if part != "*" and part not in values:
+                raise LwailError(f"--only {selector!r}: the plan has no {axis} {part!r}; its {axis}s: {', '.join(values)}")
+        wanted = dict(zip(grid, parts))
+        matches = {run for run in plan.runs
+                   if all(wanted.get(axis, "*") in ("*", str(value)) for axis, value in (("task", run.task), ("seed", run.seed), ("arm", run.arm)))}
+        if not matches:
+            raise LwailError(f"--only {selector!r} picks no run of the plan (its grid has no run with all of these)")
+        picked |= matches
+    return [run for run in plan.runs if run in picked]
+
+
+def grid_lines(plan: SweepPlan, runs: list[SweepRun] | None = None) -> list[str]:
+    """The plan as it will run (``runs``: those of it that will, default all): its overrides, then each run with its
+    embedding kind and its arm's own overrides."""
     lines = [f"[set] {stage}: {', '.join(assignments)}" for stage, assignments in plan.overrides.items()]
-    for run in plan.runs:
+    for run in plan.runs if runs is None else runs:
         own = "; ".join(f"{stage}: {', '.join(assignments)}" for stage, assignments in plan.variants.get(run.kind, {}).items() if stage != "kind")
         phi = plan.phi_of(run)[2]
         shared = f", the φ of {phi}" if phi != run.kind else ""
