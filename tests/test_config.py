@@ -149,7 +149,8 @@ def test_every_field_lwail_0_3_did_not_have_says_since_when():
     for stage, config_class in cfg.STAGES.items():
         assert sorted(path for path, since in _leaves(config_class) if not since) == sorted(layout_0_3[stage]), stage
     assert [path for path, since in _leaves(cfg.ImitationConfig) if since] == [
-        f"{method}.{f.name}" for method, config in (("bco", cfg.BcoConfig), ("opolo", cfg.OpoloConfig)) for f in dataclasses.fields(config)]
+        f"{method}.{f.name}" for method, config in (("bco", cfg.BcoConfig), ("opolo", cfg.OpoloConfig), ("difo", cfg.DifoConfig))
+        for f in dataclasses.fields(config)]
 
 
 def test_the_record_of_0_3_holds_every_section_read_or_not_and_none_added_since():

@@ -28,7 +28,7 @@ TINY = ("--steps", "600", "--eval-every", "600", "--checkpoint-every", "600", "-
 
 
 def test_the_registry_lists_exactly_the_methods_the_config_offers():
-    assert list(METHODS) == list(cfg.METHODS) == ["lwail", "gaifo", "pwil", "bco", "opolo"]
+    assert list(METHODS) == list(cfg.METHODS) == ["lwail", "gaifo", "pwil", "bco", "opolo", "difo"]
     assert all(method.name == name for name, method in METHODS.items())
     assert [name for name, method in METHODS.items() if method.reads_discriminator] == ["lwail"]
     # a reward learner for the TD3 loop, or a loop of its own: one of the two, never both
@@ -84,10 +84,10 @@ def pendulum(store, cli):
     return cli
 
 
-OWN_SETTING = {"gaifo": "gaifo.lr=0.5", "pwil": "pwil.beta=0.5", "bco": "bco.lr=0.005", "opolo": "opolo.alpha=0.5"}  # one of each baseline's, recorded
+OWN_SETTING = {"gaifo": "gaifo.lr=0.5", "pwil": "pwil.beta=0.5", "bco": "bco.lr=0.005", "opolo": "opolo.alpha=0.5", "difo": "difo.bce_weight=0.5"}  # one of each baseline's, recorded
 
 
-@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco", "opolo"])
+@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco", "opolo", "difo"])
 def test_a_baseline_imitates_end_to_end_from_the_cli(pendulum, store, method):
     setting = OWN_SETTING[method]
     result = pendulum("imitate", ENV, "--demos", "ip", "--embedding", "ident", "--method", method, "--name", method, "--set", setting, *TINY)
@@ -98,14 +98,14 @@ def test_a_baseline_imitates_end_to_end_from_the_cli(pendulum, store, method):
     reads_gaifo = {"gaifo"} if method == "opolo" else set()  # OPOLO's reward is GAIfO's D
     assert not {other for other in cfg.METHODS if other in policy.config} - {method} - reads_gaifo  # no other method's settings recorded
     assert policy.parent_kinds == ["demos", "embedding"]
-    assert policy.file("discriminator.safetensors").is_file() == (method in ("gaifo", "opolo"))
+    assert policy.file("discriminator.safetensors").is_file() == (method in ("gaifo", "opolo", "difo"))
     assert np.isfinite(policy.metrics["return_mean"])
 
 
 def test_a_wrong_method_or_a_wrong_disc_is_refused_in_one_line(pendulum, store):
     refs = ("--demos", "ip", "--embedding", "ident")
     for args, message in [
-        (("--method", "nosuch"), "method must be one of lwail, gaifo, pwil, bco, opolo, got 'nosuch'"),
+        (("--method", "nosuch"), "method must be one of lwail, gaifo, pwil, bco, opolo, difo, got 'nosuch'"),
         (("--method", "gaifo", "--disc", "whatever"), "--method gaifo trains no warmed-up discriminator: drop --disc whatever"),
         (("--method", "lwail"), "--method lwail needs a warmed-up discriminator: give --disc REF"),
         ((), "--method lwail needs a warmed-up discriminator"),
@@ -119,7 +119,7 @@ class Killed(Exception):
     pass
 
 
-@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco", "opolo"])
+@pytest.mark.parametrize("method", ["gaifo", "pwil", "bco", "opolo", "difo"])
 def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
     bundled = demos.import_bundled_demos(store, env_id=ENV)
     data = collect.collect(store, env_id=ENV, config=cfg.CollectConfig(transitions=300), seed=0)
@@ -128,7 +128,7 @@ def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
         method=method, td3=cfg.TD3Config(hidden=(32, 32), random_steps=300, learning_starts=300, batch_size=64),
         train=cfg.TrainConfig(steps=1500, eval_every=1500, eval_episodes=2, checkpoint_every=500), update_every=400, update_steps=3,
         bco=cfg.BcoConfig(idm_hidden=(32, 32), pretrain_steps=50, interval=300, idm_steps=20, bc_steps=20),
-        opolo=cfg.OpoloConfig(idm_hidden=(32, 32), pretrain_steps=50, interval=300, idm_steps=20),
+        opolo=cfg.OpoloConfig(idm_hidden=(32, 32), pretrain_steps=50, interval=300, idm_steps=20), difo=cfg.DifoConfig(hidden=(32, 32)),
     )
     stages = dict(env_id=ENV, demos_ref=bundled.ref, embedding_ref=embedding.ref, config=config, seed=0, device=CPU)
     straight = imitate.imitate(store, name="straight", **stages)
@@ -141,7 +141,7 @@ def test_a_baseline_resumes_after_a_kill_bit_for_bit(store, method):
         imitate.imitate(store, name="killed", on_progress=kill, **stages)
     assert store.runs.load_checkpoint("policy", "killed")["run"]["step"] == 500
     resumed = imitate.imitate(store, name="killed", resume=True, **stages)
-    kept = {"gaifo": ("discriminator.safetensors",), "bco": ("inverse_dynamics.safetensors",),
+    kept = {"gaifo": ("discriminator.safetensors",), "difo": ("discriminator.safetensors",), "bco": ("inverse_dynamics.safetensors",),
             "opolo": ("discriminator.safetensors", "inverse_dynamics.safetensors")}.get(method, ())
     for name in ("actor.safetensors",) + kept:
         assert straight.file(name).read_bytes() == resumed.file(name).read_bytes()
@@ -156,9 +156,9 @@ def test_a_plan_varies_methods_as_it_varies_embeddings_and_only_lwail_warms_up_a
     plan = read_plan(Path(__file__).parents[1] / "plans" / "methods-mujoco.toml")
     methods = {run.arm: (plan.embedding_kind(run.kind), plan.run_config("imitate", run).method) for run in plan.runs}
     assert methods == {f"{kind}-{method}": (kind, method) for kind in ("icvf", "identity") for method in cfg.METHODS}
-    assert (len(plan.runs), len(plan.phis)) == (30, 6)
+    assert (len(plan.runs), len(plan.phis)) == (36, 6)
     names = {run.method: plan.names(run) for run in plan.runs if (run.task, run.kind) == ("Hopper-v5", "icvf")}
-    assert {n["embedding"] for n in names.values()} == {"methods-mujoco-hopper-v5-s0-icvf"}  # one φ for the five methods
+    assert {n["embedding"] for n in names.values()} == {"methods-mujoco-hopper-v5-s0-icvf"}  # one φ for the six methods
     assert [n["policy"] for n in names.values()] == [f"methods-mujoco-hopper-v5-s0-icvf-{m}" for m in cfg.METHODS]
     assert chain_for("lwail") == CHAIN and chain_for("gaifo") == chain_for("pwil") == ("collect", "pretrain-icvf", "imitate")
     assert reads("imitate", "lwail") == ("demos", "embedding", "discriminator") and reads("imitate", "pwil") == ("demos", "embedding")

@@ -21,8 +21,8 @@ MAX_STEPS = 100_000_000  # a budget past this is a typo, not a run (1M steps tak
 LAYER_NORMS = ("none", "after", "before")  # where φ, ψ and T normalise: nets.StackedMLP
 POLICY_NETWORKS = ("actor", "target", "average")  # TD3's online actor, its target actor, a slower average (train.average_tau)
 MAX_BUFFER = 10_000_000  # replay rows: ~1 GiB per 10M rows of a 11-dim task, far more for Ant
-METHODS = ("lwail", "gaifo", "pwil", "bco", "opolo")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
-ADVERSARIAL = ("lwail", "gaifo", "opolo")  # the methods whose adversary trains on the update_every schedule (imitation.AdversarialReward)
+METHODS = ("lwail", "gaifo", "pwil", "bco", "opolo", "difo")  # the imitation methods, one entry each in methods.METHODS (its test checks both agree)
+ADVERSARIAL = ("lwail", "gaifo", "opolo", "difo")  # the methods whose adversary trains on the update_every schedule (imitation.AdversarialReward)
 
 
 # ------------------------------------------------------------------------------ shared sections
@@ -238,12 +238,35 @@ class OpoloConfig(InverseDynamicsSettings):
 
 
 @dataclass(frozen=True)
+class DifoConfig(Validated):
+    """DIFO's discriminator: a diffusion model of φ(s′) given φ(s) and a label, expert or agent, whose denoising errors
+    under the two labels make D's logit (methods/difo.py; the reference's Walker2d settings, on LWAIL's update_every schedule)."""
+
+    hidden: tuple[int, ...] = setting((256, 256, 256), "widths of the denoiser: an input layer, then blocks down these widths and back up with skip connections (the reference's num_units)", low=1, high=4096)
+    embedding: int = setting(32, "width of the embeddings of the noise step, the label and the state that scale and shift each block (the reference's Walker2d emb_dim; even)", low=4, high=4096)
+    lr: float = setting(1e-4, "Adam learning rate of the denoiser (the reference's)", low=1e-7, high=1.0)
+    bce_weight: float = setting(0.01, "weight of the cross-entropy of D's logit beside the expert-labelled denoising loss (the reference's Walker2d value; its default 1)", low=0.0, high=1e4)
+    logit_scale: float = setting(10.0, "κ in D's logit κ·(agent-labelled − expert-labelled denoising error) (the reference's)", low=1e-6, high=1e6)
+    diffusion_steps: int = setting(1_000, "noising steps T of the cosine schedule (the reference's DDPM squaredcos_cap_v2)", low=2, high=100_000)
+    reward_t_low: int = setting(250, "the reward's noise step t is drawn from reward_t_low … reward_t_high − 1 (the reference's)", low=0, high=100_000)
+    reward_t_high: int = setting(750, "see reward_t_low; at most diffusion_steps", low=1, high=100_000)
+
+    def check(self) -> None:
+        values = vars(self)
+        if values["embedding"] % 2:
+            raise LwailError(f"difo.embedding must be even (its noise-step code is sines and cosines), got {values['embedding']}")
+        if not values["reward_t_low"] < values["reward_t_high"] <= values["diffusion_steps"]:
+            raise LwailError(f"difo.reward_t_low < difo.reward_t_high <= difo.diffusion_steps must hold, got {values['reward_t_low']}, "
+                             f"{values['reward_t_high']}, {values['diffusion_steps']}")
+
+
+@dataclass(frozen=True)
 class ImitationConfig(Validated):
     env: EnvConfig = section(EnvConfig, "the environment's start (training and evaluation episodes)")
     td3: TD3Config = section(TD3Config, "TD3 settings")
     train: TrainConfig = section(TrainConfig, "run schedule")
-    method: str = setting("lwail", "the imitation method: lwail (σ(−f), needs --disc), gaifo or pwil (TD3 on their reward), opolo (TD3 on OPOLO's objective with GAIfO's reward) or bco (its own loop) (docs/algorithm.md)", choices=METHODS)
-    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo, opolo)", low=1, high=MAX_STEPS,
+    method: str = setting("lwail", "the imitation method: lwail (σ(−f), needs --disc), gaifo, pwil or difo (TD3 on their reward), opolo (TD3 on OPOLO's objective with GAIfO's reward) or bco (its own loop) (docs/algorithm.md)", choices=METHODS)
+    update_every: int = setting(4_000, "train f or D (and relabel the buffer) every this many env steps (lwail, gaifo, opolo, difo)", low=1, high=MAX_STEPS,
                                  used_when=("method", ADVERSARIAL))
     update_steps: int = setting(40, "full-batch steps of f or D per update (paper: 40, authors' code: 30)", low=0, high=100_000,
                                  used_when=("method", ADVERSARIAL))
@@ -254,6 +277,7 @@ class ImitationConfig(Validated):
                              since="0.4")
     opolo: OpoloConfig = section(OpoloConfig, "OPOLO's objective and inverse-dynamics model (method opolo)", used_when=("method", ("opolo",)),
                                  since="0.4")
+    difo: DifoConfig = section(DifoConfig, "DIFO's diffusion discriminator (method difo)", used_when=("method", ("difo",)), since="0.4")
 
 
 @dataclass(frozen=True)

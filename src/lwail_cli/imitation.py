@@ -1,11 +1,11 @@
-"""An adversarial reward's schedule inside the TD3 loop: LWAIL's (paper Alg. 1; docs/algorithm.md), and GAIfO's.
+"""An adversarial reward's schedule inside the TD3 loop: LWAIL's (paper Alg. 1; docs/algorithm.md), GAIfO's and DIFO's.
 
-A new transition is rewarded with the current adversary (LWAIL's critic f, GAIfO's discriminator D) as it enters the
+A new transition is rewarded with the current adversary (LWAIL's critic f, GAIfO's or DIFO's discriminator D) as it enters the
 buffer. Its inputs ``[φ(s), φ(s')−φ(s)]`` are cached (φ is frozen) one update window at a time. Every ``update_every``
 env steps the adversary is trained on the last ``update_every`` policy transitions against expert transitions, then
 every reward in the buffer is relabelled with the new adversary (σ(−f) for LWAIL), so all rewards always come from the
 current one. The adversary is a trainer with ``Adversary``'s interface (``discriminator.DiscriminatorTrainer``,
-``methods.gaifo.GaifoTrainer``).
+``methods.gaifo.GaifoTrainer``, ``methods.difo.DifoTrainer``).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 its own.
 
 Every method is built from the same ``base.Inputs`` — the frozen embedding φ (the identity for raw states), the demo's
-pair features ``[φ(s), φ(s') − φ(s)]``, the replay capacity. A reward learner (LWAIL, GAIfO, PWIL: ``Method.build``)
+pair features ``[φ(s), φ(s') − φ(s)]``, the replay capacity. A reward learner (LWAIL, GAIfO, PWIL, DIFO: ``Method.build``)
 becomes a ``base.Learner``: a ``training.RewardModel`` the loop asks for rewards (``prepare``), tells when an episode
 ends, evaluates (``metrics``) and checkpoints (``state_dict``) without knowing which it is. A method with a loop of its
 own (BCO, which clones a policy instead of rewarding TD3; OPOLO, TD3 with its own objective and inverse-dynamics model:
@@ -20,6 +20,6 @@ a numeric check of what it learns there or in its own file, e.g. ``tests/test_bc
 from __future__ import annotations
 
 from .base import Inputs, Learner, Method, Session, Trained, Transitions  # noqa: F401
-from . import bco, gaifo, lwail, opolo, pwil
+from . import bco, difo, gaifo, lwail, opolo, pwil
 
-METHODS: dict[str, Method] = {method.name: method for method in (lwail.METHOD, gaifo.METHOD, pwil.METHOD, bco.METHOD, opolo.METHOD)}
+METHODS: dict[str, Method] = {method.name: method for method in (lwail.METHOD, gaifo.METHOD, pwil.METHOD, bco.METHOD, opolo.METHOD, difo.METHOD)}

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Protocol
 
+from ..imitation import AdversarialReward
 from ..training import RewardModel
 
 if TYPE_CHECKING:
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
     from ..envs import EnvInfo
     from ..evaluation import Reference
     from ..icvf import Encoder
+    from ..imitation import Adversary
     from ..training import RunState
 
 
@@ -43,7 +45,7 @@ class Inputs:
     config: ImitationConfig
     encoder: Encoder  # φ, frozen (the identity for raw states)
     expert: torch.Tensor  # the expert's pair features [φ(s), φ(s') − φ(s)], in the demo's order
-    random: torch.Tensor  # random-policy pair features, only for diagnostics
+    random: torch.Tensor  # random-policy pair features of data set I: diagnostics, and the range DIFO scales φ by
     capacity: int  # the replay buffer's
     critic: Critic | None = None  # the warmed-up f, for a method that reads a discriminator artifact
     critic_config: CriticConfig | None = None  # the settings f was warmed up with
@@ -95,3 +97,10 @@ class Method:
     def __post_init__(self) -> None:
         if (self.build is None) == (self.train is None):
             raise ValueError(f"method {self.name}: give build (a reward learner for the TD3 loop) or train (its own loop), one of them")
+
+
+def adversarial_reward(inputs: Inputs, trainer: Adversary) -> AdversarialReward:
+    """An adversary's reward on the run's schedule (every ``update_every`` env steps, ``update_steps`` updates): LWAIL's, GAIfO's, DIFO's."""
+    config = inputs.config
+    return AdversarialReward(inputs.encoder, trainer, inputs.expert, inputs.capacity, update_every=config.update_every,
+                             update_steps=config.update_steps, random_features=inputs.random)

@@ -18,7 +18,7 @@ import torch.nn.functional as F
 from ..discriminator import Critic, DiscriminatorTrainer, gradient_penalty
 from ..imitation import AdversarialReward
 from ..learning_curve import DISCRIMINATOR_LOSS
-from .base import Inputs, Method
+from .base import Inputs, Method, adversarial_reward
 
 REWARD_CEILING = 10.0  # −log(1 − D) at D = 1 − 4.5e-5: a saturated D cannot hand TD3 an unbounded reward
 
@@ -44,10 +44,8 @@ class GaifoTrainer(DiscriminatorTrainer):
 
 
 def build(inputs: Inputs) -> AdversarialReward:
-    config = inputs.config
-    discriminator = Critic(inputs.expert.shape[1], config.gaifo.hidden).to(inputs.expert.device)
-    return AdversarialReward(inputs.encoder, GaifoTrainer(discriminator, config.gaifo), inputs.expert, inputs.capacity,
-                             update_every=config.update_every, update_steps=config.update_steps, random_features=inputs.random)
+    discriminator = Critic(inputs.expert.shape[1], inputs.config.gaifo.hidden).to(inputs.expert.device)
+    return adversarial_reward(inputs, GaifoTrainer(discriminator, inputs.config.gaifo))
 
 
 METHOD = Method("gaifo", "GAIfO", "GAIfO reward −log(1 − D)", reads_discriminator=False, caches_features=True, build=build,

@@ -5,14 +5,12 @@ from __future__ import annotations
 
 from ..discriminator import DiscriminatorTrainer
 from ..imitation import AdversarialReward
-from .base import Inputs, Method
+from .base import Inputs, Method, adversarial_reward
 
 
 def build(inputs: Inputs) -> AdversarialReward:
-    config = inputs.config
-    trainer = DiscriminatorTrainer(inputs.critic, inputs.critic_config)  # f keeps the loss and learning rate it was warmed up with
-    return AdversarialReward(inputs.encoder, trainer, inputs.expert, inputs.capacity, update_every=config.update_every,
-                             update_steps=config.update_steps, random_features=inputs.random)
+    # f keeps the loss and learning rate it was warmed up with
+    return adversarial_reward(inputs, DiscriminatorTrainer(inputs.critic, inputs.critic_config))
 
 
 METHOD = Method("lwail", "LWAIL", "LWAIL pseudo-reward", reads_discriminator=True, caches_features=True, build=build, reward="σ(−f)")
