@@ -72,6 +72,24 @@ def test_without_ray_the_sweep_says_how_to_install_it(cli, store, monkeypatch):
     assert result.exit_code == 1 and 'pip install "lwail[sweep]"' in result.output
 
 
+def test_a_private_ray_runs_the_sweeps_workers_at_the_drivers_priority(monkeypatch):
+    from lwail_cli.stages.sweep import start_ray
+
+    ray = pytest.importorskip("ray")
+    monkeypatch.delenv("RAY_worker_niceness", raising=False)  # Ray's own default: 15 steps nicer than the driver
+
+    def niceness() -> int:  # nested, so Ray ships it by value (a worker cannot import this test module)
+        import os
+
+        return os.nice(0)
+
+    start_ray(ray, None)
+    try:
+        assert ray.get(ray.remote(num_cpus=0)(niceness).remote()) == niceness()
+    finally:
+        ray.shutdown()
+
+
 def test_smoke_sweep_shares_stages_restarts_without_redoing_them_and_reports(cli, store, monkeypatch):
     pytest.importorskip("ray")
     monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:9")  # a cluster named elsewhere on this machine is not this sweep's

@@ -146,6 +146,17 @@ def _worker(root: str, plan_dict: dict) -> tuple[Store, SweepPlan]:
 
 
 # ------------------------------------------------------------------------------ the driver
+def start_ray(ray, address: str | None) -> None:
+    """Join the cluster at ``address``, or start a private Ray instance whose workers run at this process's priority."""
+    if address is None:
+        # Ray's workers otherwise start 15 steps nicer than its raylet (RAY_worker_niceness): any other job on the
+        # machine, a test suite at nice 10, would take the cores from the sweep's runs; `nice lwail sweep` still works
+        os.environ.setdefault("RAY_worker_niceness", "0")
+    # without an address, a private Ray instance: ray.init(None) would join whatever cluster RAY_ADDRESS or the
+    # last `ray start` on this machine names, another user's or a dead one
+    ray.init(address=address or "local", include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
+
+
 def run_sweep(store: Store, *, plan: SweepPlan, runs: list[SweepRun] | None = None, address: str | None = None,
               on_status: Callable[[dict[str, str]], None] | None = None, poll_seconds: float = 5.0) -> list[str]:
     """Run every stage of the plan's ``runs`` (default all; ``sweep_plan.select_runs``) and what they read on Ray;
@@ -165,9 +176,7 @@ def run_sweep(store: Store, *, plan: SweepPlan, runs: list[SweepRun] | None = No
     demos = {task: bundled_demos(store, plan, task).ref for task in dict.fromkeys(run.task for run in runs)}  # a file copy: no Ray task needed
     for run in runs:  # what a killed sweep's runs last said is not what they do now
         store.runs.clear_sweep_status(plan.name, plan.names(run)["policy"])
-    # without an address, a private Ray instance: ray.init(None) would join whatever cluster RAY_ADDRESS or the
-    # last `ray start` on this machine names, another user's or a dead one
-    ray.init(address=address or "local", include_dashboard=False, log_to_driver=False, logging_level="ERROR", configure_logging=False)
+    start_ray(ray, address)
     stop = threading.Event()  # SIGTERM or Ctrl-C: pause the runs at work, start nothing more
     paused: list[str] = []
     try:
